@@ -1,0 +1,198 @@
+//! PROFIBUS DP protocol constants: the one place that names them.
+//!
+//! Everything here is a fact of the wire (EN 50170 vol. 2, shared/PROTOCOL.md, shared/DESIGN.md)
+//! that more than one crate needs: the transceiver model, the FDL codec, the slave state machine,
+//! the firmware and the GSD writer all read it from here, so a number is never written twice.
+//! Timing is in bit times (tBit = 1 / baud rate) unless a name says otherwise.
+#![cfg_attr(not(test), no_std)]
+#![deny(unsafe_code)]
+
+/// Bits on the wire per character: start 0, 8 data bits LSB first, even parity, stop 1.
+pub const BITS_PER_CHAR: u32 = 11;
+
+/// Synchronisation time: idle bit times the line must rest before a request may start.
+pub const TSYN_BITS: u32 = 33;
+
+/// The smallest station delay of a responder, in bit times, at every rate.
+pub const MIN_TSDR_BITS: u8 = 11;
+
+/// Start delimiter of a telegram with no data unit: `10 DA SA FC FCS 16`.
+pub const SD1: u8 = 0x10;
+/// Start delimiter of a telegram with a variable data unit: `68 LE LEr 68 DA SA FC .. FCS 16`.
+pub const SD2: u8 = 0x68;
+/// Start delimiter of a telegram with an 8-byte data unit: `A2 DA SA FC DU*8 FCS 16`.
+pub const SD3: u8 = 0xA2;
+/// Start delimiter of the token telegram: `DC DA SA`.
+pub const SD4: u8 = 0xDC;
+/// Short acknowledgement, a whole telegram of one byte.
+pub const SC: u8 = 0xE5;
+/// End delimiter.
+pub const ED: u8 = 0x16;
+
+/// Data-unit length of an SD3 telegram (SAP bytes included).
+pub const SD3_DATA_LEN: usize = 8;
+/// Smallest LE of an SD2 telegram: DA, SA, FC and at least one data byte.
+pub const SD2_MIN_LE: u8 = 4;
+/// Largest LE of an SD2 telegram: DA, SA, FC and 246 data bytes.
+pub const SD2_MAX_LE: u8 = 249;
+/// The longest telegram on the wire (an SD2 of the largest LE plus its six framing bytes).
+pub const MAX_TELEGRAM_LEN: usize = SD2_MAX_LE as usize + 6;
+
+/// The broadcast station address: requests to it get no response.
+pub const BROADCAST_ADDRESS: u8 = 127;
+/// The highest address a station may hold (126 is the default of a slave without one).
+pub const MAX_STATION_ADDRESS: u8 = 126;
+
+/// The ten PROFIBUS DP baud rates, fastest last, with the numbers the standard and the GSD use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Baud {
+    B9600,
+    B19200,
+    B45450,
+    B93750,
+    B187500,
+    B500000,
+    B1500000,
+    B3000000,
+    B6000000,
+    B12000000,
+}
+
+impl Baud {
+    /// All rates, slowest first.
+    pub const ALL: [Baud; 10] = [
+        Baud::B9600,
+        Baud::B19200,
+        Baud::B45450,
+        Baud::B93750,
+        Baud::B187500,
+        Baud::B500000,
+        Baud::B1500000,
+        Baud::B3000000,
+        Baud::B6000000,
+        Baud::B12000000,
+    ];
+
+    /// Bits per second.
+    pub const fn bits_per_second(self) -> u32 {
+        match self {
+            Baud::B9600 => 9_600,
+            Baud::B19200 => 19_200,
+            Baud::B45450 => 45_450,
+            Baud::B93750 => 93_750,
+            Baud::B187500 => 187_500,
+            Baud::B500000 => 500_000,
+            Baud::B1500000 => 1_500_000,
+            Baud::B3000000 => 3_000_000,
+            Baud::B6000000 => 6_000_000,
+            Baud::B12000000 => 12_000_000,
+        }
+    }
+
+    /// Position in [`Baud::ALL`] (0 = 9.6k .. 9 = 12M).
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The SPC3 baud status code: 0 = 12M .. 9 = 9.6k.
+    pub const fn spc3_code(self) -> u8 {
+        9 - self as u8
+    }
+
+    /// Default max TSDR in bit times (the responder's latest answer; DESIGN.md timing facts).
+    pub const fn default_max_tsdr_bits(self) -> u16 {
+        match self {
+            Baud::B9600 | Baud::B19200 | Baud::B45450 | Baud::B93750 | Baud::B187500 => 60,
+            Baud::B500000 => 100,
+            Baud::B1500000 => 150,
+            Baud::B3000000 => 250,
+            Baud::B6000000 => 450,
+            Baud::B12000000 => 800,
+        }
+    }
+
+    /// Default slot time in bit times.
+    pub const fn default_slot_time_bits(self) -> u16 {
+        match self {
+            Baud::B9600 | Baud::B19200 | Baud::B45450 | Baud::B93750 | Baud::B187500 => 100,
+            Baud::B500000 => 200,
+            Baud::B1500000 => 300,
+            Baud::B3000000 => 400,
+            Baud::B6000000 => 600,
+            Baud::B12000000 => 1000,
+        }
+    }
+
+    /// The keyword suffix GSD files use for this rate (`9.6_supp`, `MaxTsdr_9.6`, ...).
+    pub const fn gsd_name(self) -> &'static str {
+        match self {
+            Baud::B9600 => "9.6",
+            Baud::B19200 => "19.2",
+            Baud::B45450 => "45.45",
+            Baud::B93750 => "93.75",
+            Baud::B187500 => "187.5",
+            Baud::B500000 => "500",
+            Baud::B1500000 => "1.5M",
+            Baud::B3000000 => "3M",
+            Baud::B6000000 => "6M",
+            Baud::B12000000 => "12M",
+        }
+    }
+
+    /// The rate of exactly `bits_per_second`, if it is one of the ten.
+    pub fn from_bits_per_second(bits_per_second: u32) -> Option<Baud> {
+        Baud::ALL
+            .into_iter()
+            .find(|b| b.bits_per_second() == bits_per_second)
+    }
+}
+
+impl core::fmt::Display for Baud {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let bps = self.bits_per_second();
+        if bps >= 1_000_000 {
+            write!(f, "{}M", self.gsd_name().trim_end_matches('M'))
+        } else {
+            write!(f, "{}k", self.gsd_name())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates_are_ordered_and_indexed() {
+        for (i, b) in Baud::ALL.iter().enumerate() {
+            assert_eq!(b.index(), i);
+            assert_eq!(Baud::from_bits_per_second(b.bits_per_second()), Some(*b));
+        }
+        assert!(Baud::ALL
+            .windows(2)
+            .all(|w| w[0].bits_per_second() < w[1].bits_per_second()));
+    }
+
+    #[test]
+    fn spc3_codes_count_down_from_12m() {
+        assert_eq!(Baud::B12000000.spc3_code(), 0);
+        assert_eq!(Baud::B9600.spc3_code(), 9);
+    }
+
+    #[test]
+    fn max_tsdr_matches_the_spc3_gsd_table() {
+        // DESIGN.md: SPC3-class GSD MaxTsdr (9.6k .. 12M): 60 60 60 60 60 100 150 250 450 800.
+        let table = [60, 60, 60, 60, 60, 100, 150, 250, 450, 800];
+        for (b, want) in Baud::ALL.iter().zip(table) {
+            assert_eq!(b.default_max_tsdr_bits(), want, "{b}");
+        }
+    }
+
+    #[test]
+    fn display_names() {
+        assert_eq!(Baud::B45450.to_string(), "45.45k");
+        assert_eq!(Baud::B1500000.to_string(), "1.5M");
+        assert_eq!(Baud::B12000000.to_string(), "12M");
+    }
+}

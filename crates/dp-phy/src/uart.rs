@@ -1,0 +1,406 @@
+//! UART receiver and transmitter for PROFIBUS characters (11 bits: start 0, 8 data LSB first,
+//! even parity, stop 1; the idle line is 1).
+//!
+//! ```text
+//!  line ‾‾‾‾|_S_|d0_|d1_|d2_|d3_|d4_|d5_|d6_|d7_|_P_|‾ST‾|‾‾‾‾
+//!           ^ start edge: phase accumulator starts
+//!                 ^ samples at 7/16, 8/16, 9/16 of each bit (majority) when a bit has >= 16
+//!                   clocks; one sample at 8/16 below that (4 clocks per bit at 12M/48 MHz)
+//! ```
+//!
+//! The receiver re-synchronises on every start edge, rejects a start bit that is 1 at its middle
+//! (false start), and reports parity, framing (stop bit 0) and break (every bit 0) per character.
+//! The transmitter drives a character stream back to back with driver enable asserted only while
+//! it sends; it can hold the line idle for a number of its own bit times first (a master's TSYN)
+//! and, for fault injection, flip a data bit or drop a character.
+
+use crate::{BitTiming, Tick};
+
+/// What went wrong with one received character.
+#[non_exhaustive]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CharError {
+    /// The parity bit does not make the ones even.
+    Parity,
+    /// The stop bit was 0.
+    Framing,
+    /// Every bit, stop bit included, was 0: the line was held low.
+    Break,
+}
+
+/// The even-parity bit of `byte`.
+pub fn parity_bit(byte: u8) -> bool {
+    byte.count_ones() % 2 == 1
+}
+
+/// The 11 line levels of `byte`, first on the wire first.
+pub fn char_bits(byte: u8) -> [bool; 11] {
+    let mut bits = [true; 11];
+    bits[0] = false;
+    for (i, b) in bits[1..9].iter_mut().enumerate() {
+        *b = byte >> i & 1 == 1;
+    }
+    bits[9] = parity_bit(byte);
+    bits
+}
+
+/// A character the receiver finished, at the middle of its stop bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RxChar {
+    pub byte: u8,
+    pub error: Option<CharError>,
+    /// The tick the start edge was seen.
+    pub start: Tick,
+    /// The tick the stop bit ends (computed from the phase at its middle).
+    pub end: Tick,
+}
+
+/// Sample points within a bit, in sixteenths.
+const VOTE_POINTS: [u64; 3] = [7, 8, 9];
+const MID_POINT: u64 = 8;
+
+/// Receiver registers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RxQ {
+    pub active: bool,
+    /// Bit being received, 0 = start .. 10 = stop.
+    pub bit: u8,
+    /// Phase within the bit.
+    pub ph: u64,
+    /// Ones seen among this bit's samples.
+    pub votes: u8,
+    /// Bits 0..=10 received so far, bit i at position i.
+    pub shift: u16,
+    pub start: Tick,
+}
+
+pub const RX_RESET: RxQ = RxQ {
+    active: false,
+    bit: 0,
+    ph: 0,
+    votes: 0,
+    shift: 0,
+    start: 0,
+};
+
+/// The receiver's fixed configuration for one rate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UartRx {
+    pub timing: BitTiming,
+    /// Majority of three samples (at least 16 clocks per bit) or one at the middle.
+    pub vote: bool,
+}
+
+impl UartRx {
+    pub fn new(timing: BitTiming) -> Self {
+        UartRx {
+            timing,
+            vote: timing.clocks_per_bit() >= 16,
+        }
+    }
+
+    /// The receiver ready for the stop bit of a character that somebody else sampled up to its
+    /// middle: used when autobaud hands over the first character.
+    fn sample_points(&self) -> &'static [u64] {
+        if self.vote {
+            &VOTE_POINTS
+        } else {
+            core::slice::from_ref(&MID_POINT)
+        }
+    }
+
+    /// Next state at `now` for the filtered `level` (`fell`: it fell on this clock).
+    #[inline(always)]
+    pub fn next(&self, now: Tick, level: bool, fell: bool, q: &RxQ) -> (Option<RxChar>, RxQ) {
+        let mut d = *q;
+        if !q.active {
+            if fell {
+                d.active = true;
+                d.bit = 0;
+                // The edge happened, on average, half a clock before it was seen.
+                d.ph = self.timing.inc / 2;
+                d.votes = 0;
+                d.shift = 0;
+                d.start = now;
+            }
+            return (None, d);
+        }
+        let m = self.timing.modulo;
+        let p = q.ph + self.timing.inc;
+        let mut out = None;
+        let points = self.sample_points();
+        for (i, &pt) in points.iter().enumerate() {
+            let thr = pt * m;
+            if 16 * q.ph < thr && thr <= 16 * p {
+                d.votes += level as u8;
+                if i + 1 == points.len() {
+                    let one = d.votes as usize * 2 > points.len();
+                    d.votes = 0;
+                    d.shift |= (one as u16) << q.bit;
+                    if q.bit == 0 && one {
+                        // False start: a glitch, not a character.
+                        d.active = false;
+                    } else if q.bit == 10 {
+                        d.active = false;
+                        out = Some(self.finish(now, p, d.shift, q.start));
+                    }
+                }
+                break;
+            }
+        }
+        if p >= m {
+            d.ph = p - m;
+            d.bit = q.bit + 1;
+        } else {
+            d.ph = p;
+        }
+        (out, d)
+    }
+
+    fn finish(&self, now: Tick, ph_at_stop_middle: u64, shift: u16, start: Tick) -> RxChar {
+        let byte = (shift >> 1) as u8;
+        let parity = shift >> 9 & 1 == 1;
+        let stop = shift >> 10 & 1 == 1;
+        let error = if shift == 0 {
+            Some(CharError::Break)
+        } else if !stop {
+            Some(CharError::Framing)
+        } else if parity != parity_bit(byte) {
+            Some(CharError::Parity)
+        } else {
+            None
+        };
+        let end = now + self.timing.ticks_until(ph_at_stop_middle, self.timing.modulo);
+        RxChar {
+            byte,
+            error,
+            start,
+            end,
+        }
+    }
+
+    /// Ticks with a constant line before this receiver does more than count (0: tick now).
+    pub fn quiet_for(&self, q: &RxQ) -> Tick {
+        if !q.active {
+            return Tick::MAX;
+        }
+        let m = self.timing.modulo;
+        let next_point = self
+            .sample_points()
+            .iter()
+            .map(|&pt| pt * m)
+            .find(|&thr| 16 * q.ph < thr)
+            .unwrap_or(16 * m);
+        // The event happens on the tick whose phase first reaches the threshold.
+        let ticks = (next_point - 16 * q.ph).div_ceil(16 * self.timing.inc);
+        ticks - 1
+    }
+
+    /// Let `ticks` pass that [`quiet_for`](Self::quiet_for) allowed.
+    pub fn skip(&self, ticks: Tick, q: &mut RxQ) {
+        if q.active {
+            q.ph += ticks * self.timing.inc;
+        }
+    }
+}
+
+/// Transmitter registers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TxQ {
+    /// Idle bit times still to wait before the first character.
+    pub idle_bits: u32,
+    /// Index of the character on the wire.
+    pub index: u16,
+    /// Bit of that character, 0 = start .. 10 = stop.
+    pub bit: u8,
+    pub ph: u64,
+    pub sending: bool,
+}
+
+pub const TX_RESET: TxQ = TxQ {
+    idle_bits: 0,
+    index: 0,
+    bit: 0,
+    ph: 0,
+    sending: false,
+};
+
+/// Per-character fault for the transmitter, for tests that need true bit errors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CharFault {
+    /// Invert data bit `n` (0..8) of this character on the wire; its parity stays the original.
+    FlipBit(u8),
+    /// Leave the line idle for this character's 11 bits.
+    Drop,
+}
+
+/// A half-duplex UART transmitter: `line` and `driver_enable` are its outputs.
+#[derive(Clone, Debug)]
+pub struct UartTx {
+    pub timing: BitTiming,
+    q: TxQ,
+    buf: Vec<u8>,
+    faults: Vec<(u16, CharFault)>,
+}
+
+impl UartTx {
+    pub fn new(timing: BitTiming) -> Self {
+        UartTx {
+            timing,
+            q: TX_RESET,
+            buf: Vec::with_capacity(dp_consts::MAX_TELEGRAM_LEN),
+            faults: Vec::new(),
+        }
+    }
+
+    /// Whether a transmission (or its leading idle time) is under way.
+    pub fn busy(&self) -> bool {
+        self.q.sending || self.q.idle_bits > 0
+    }
+
+    /// Start sending `bytes` after `idle_bits` of its own bit times with the driver off.
+    ///
+    /// # Panics
+    /// When a transmission is under way: the caller owns the half-duplex schedule.
+    pub fn send(&mut self, idle_bits: u32, bytes: &[u8], faults: &[(u16, CharFault)]) {
+        assert!(!self.busy(), "UartTx::send while a transmission is under way");
+        self.buf.clear();
+        self.buf.extend_from_slice(bytes);
+        self.faults.clear();
+        self.faults.extend_from_slice(faults);
+        self.q = TxQ {
+            idle_bits,
+            index: 0,
+            bit: 0,
+            ph: 0,
+            sending: idle_bits == 0 && !bytes.is_empty(),
+        };
+    }
+
+    fn fault(&self, index: u16) -> Option<CharFault> {
+        self.faults
+            .iter()
+            .find(|(i, _)| *i == index)
+            .map(|&(_, f)| f)
+    }
+
+    /// The level this transmitter puts on the line, or `None` with its driver disabled.
+    #[inline(always)]
+    pub fn drive(&self) -> Option<bool> {
+        if !self.q.sending {
+            return None;
+        }
+        let byte = self.buf[self.q.index as usize];
+        let level = match self.fault(self.q.index) {
+            None => char_bits(byte)[self.q.bit as usize],
+            Some(CharFault::Drop) => return None,
+            Some(CharFault::FlipBit(n)) => {
+                let mut bits = char_bits(byte);
+                bits[1 + n as usize % 8] ^= true;
+                bits[self.q.bit as usize]
+            }
+        };
+        Some(level)
+    }
+
+    /// One clock.
+    #[inline(always)]
+    pub fn tick(&mut self) {
+        if !self.busy() {
+            return;
+        }
+        let p = self.q.ph + self.timing.inc;
+        if p < self.timing.modulo {
+            self.q.ph = p;
+            return;
+        }
+        self.q.ph = p - self.timing.modulo;
+        if self.q.idle_bits > 0 {
+            self.q.idle_bits -= 1;
+            self.q.sending = self.q.idle_bits == 0 && !self.buf.is_empty();
+        } else if self.q.bit < 10 {
+            self.q.bit += 1;
+        } else {
+            self.q.bit = 0;
+            self.q.index += 1;
+            self.q.sending = (self.q.index as usize) < self.buf.len();
+        }
+    }
+
+    /// Ticks before this transmitter's output can next change.
+    pub fn quiet_for(&self) -> Tick {
+        if !self.busy() {
+            return Tick::MAX;
+        }
+        self.timing.ticks_until(self.q.ph, self.timing.modulo) - 1
+    }
+
+    pub fn skip(&mut self, ticks: Tick) {
+        if self.busy() {
+            self.q.ph += ticks * self.timing.inc;
+        }
+    }
+
+    pub fn registers(&self) -> TxQ {
+        self.q
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::timing::DEFAULT_CLOCK_HZ;
+    use dp_consts::Baud;
+
+    fn loopback(baud: Baud, tx_ppm: i32, bytes: &[u8], faults: &[(u16, CharFault)]) -> Vec<RxChar> {
+        let mut tx = UartTx::new(BitTiming::new(DEFAULT_CLOCK_HZ, baud, tx_ppm));
+        let rx = UartRx::new(BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0));
+        tx.send(2, bytes, faults);
+        let (mut fq, mut rq) = (crate::filter::FILTER_RESET, RX_RESET);
+        let len = crate::filter::len_for(rx.timing.clocks_per_bit());
+        let mut got = Vec::new();
+        let mut now = 0;
+        while tx.busy() || rq.active {
+            let line = tx.drive().unwrap_or(true);
+            let (f, fd) = crate::filter::next(line, len, &fq);
+            let (c, rd) = rx.next(now, f.level, f.fell, &rq);
+            fq = fd;
+            rq = rd;
+            got.extend(c);
+            tx.tick();
+            now += 1;
+        }
+        got
+    }
+
+    #[test]
+    fn every_byte_round_trips_at_every_rate() {
+        let bytes: Vec<u8> = (0..=255).collect();
+        for baud in Baud::ALL {
+            for ppm in [-5000, 0, 5000] {
+                let got = loopback(baud, ppm, &bytes, &[]);
+                let want: Vec<(u8, Option<CharError>)> = bytes.iter().map(|&b| (b, None)).collect();
+                let got: Vec<_> = got.iter().map(|c| (c.byte, c.error)).collect();
+                assert_eq!(got, want, "{baud} {ppm} ppm");
+            }
+        }
+    }
+
+    #[test]
+    fn a_flipped_bit_is_a_parity_error() {
+        let got = loopback(Baud::B1500000, 0, &[0x68, 0x12, 0x34], &[(1, CharFault::FlipBit(3))]);
+        let errors: Vec<_> = got.iter().map(|c| c.error).collect();
+        assert_eq!(errors, [None, Some(CharError::Parity), None]);
+    }
+
+    #[test]
+    fn character_end_is_eleven_bits_after_the_start_edge() {
+        for baud in Baud::ALL {
+            let got = loopback(baud, 0, &[0x10], &[]);
+            let t = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
+            let len = got[0].end - got[0].start;
+            let want = t.clocks_for(11, 1);
+            assert!(len.abs_diff(want) <= 1, "{baud}: {len} vs {want}");
+        }
+    }
+}

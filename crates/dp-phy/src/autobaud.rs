@@ -307,8 +307,14 @@ mod tests {
 
     #[test]
     fn other_characters_are_not_taken() {
-        assert_eq!(detect(Baud::B1500000, 0x55, 40), Some(Err(Reject::NotADelimiter)));
-        assert_eq!(detect(Baud::B1500000, 0xE5, 40), Some(Err(Reject::NotADelimiter)));
+        assert_eq!(
+            detect(Baud::B1500000, 0x55, 40),
+            Some(Err(Reject::NotADelimiter))
+        );
+        assert_eq!(
+            detect(Baud::B1500000, 0xE5, 40),
+            Some(Err(Reject::NotADelimiter))
+        );
     }
 
     #[test]

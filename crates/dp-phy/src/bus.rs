@@ -228,12 +228,26 @@ mod tests {
     #[test]
     fn faults_apply_in_their_windows_only() {
         let mut f = FaultInjector::none();
-        f.add(FaultWindow { start: 5, len: 2, fault: LineFault::Invert });
-        f.add(FaultWindow { start: 6, len: 5, fault: LineFault::Invert }); // overlaps: dropped
-        f.add(FaultWindow { start: 10, len: 3, fault: LineFault::Stuck(false) });
+        f.add(FaultWindow {
+            start: 5,
+            len: 2,
+            fault: LineFault::Invert,
+        });
+        f.add(FaultWindow {
+            start: 6,
+            len: 5,
+            fault: LineFault::Invert,
+        }); // overlaps: dropped
+        f.add(FaultWindow {
+            start: 10,
+            len: 3,
+            fault: LineFault::Stuck(false),
+        });
         assert_eq!(f.quiet_for(0), 5);
         let got: Vec<bool> = (0..15).map(|t| f.apply(t, true)).collect();
-        let want: Vec<bool> = (0..15).map(|t| !(5..7).contains(&t) && !(10..13).contains(&t)).collect();
+        let want: Vec<bool> = (0..15)
+            .map(|t| !(5..7).contains(&t) && !(10..13).contains(&t))
+            .collect();
         assert_eq!(got, want);
         assert_eq!(f.quiet_for(15), Tick::MAX);
     }

@@ -12,7 +12,9 @@
 
 use crate::uart::{CharError, RxChar};
 use crate::Tick;
-use dp_consts::{ED, MAX_TELEGRAM_LEN, SC, SD1, SD2, SD2_MAX_LE, SD2_MIN_LE, SD3, SD3_DATA_LEN, SD4};
+use dp_consts::{
+    ED, MAX_TELEGRAM_LEN, SC, SD1, SD2, SD2_MAX_LE, SD2_MIN_LE, SD3, SD3_DATA_LEN, SD4,
+};
 
 /// What a delivered telegram looks like.
 #[non_exhaustive]
@@ -258,7 +260,13 @@ mod tests {
 
     #[test]
     fn protocol_vectors_are_delimited_and_good() {
-        for v in [&GET_CFG_RESPONSE[..], &SD3_DATA, &SD1_FDL_STATUS, &[0xDC, 0x02, 0x01], &[0xE5]] {
+        for v in [
+            &GET_CFG_RESPONSE[..],
+            &SD3_DATA,
+            &SD1_FDL_STATUS,
+            &[0xDC, 0x02, 0x01],
+            &[0xE5],
+        ] {
             let mut d = Delimiter::new(100, 10);
             assert_eq!(feed(&mut d, v, 100), vec![(v.to_vec(), Status::Good)]);
         }

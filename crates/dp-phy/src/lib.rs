@@ -28,6 +28,7 @@ pub mod autobaud;
 pub mod bus;
 pub mod delimiter;
 pub mod filter;
+pub mod testbench;
 pub mod timing;
 pub mod trace;
 pub mod transceiver;
@@ -35,7 +36,7 @@ pub mod uart;
 
 pub use dp_consts::Baud;
 pub use timing::BitTiming;
-pub use transceiver::{BaudState, Config, Transceiver, TickOut};
+pub use transceiver::{BaudState, Config, TickOut, Transceiver};
 
 /// A point in time, in sample-clock ticks since reset.
 pub type Tick = u64;

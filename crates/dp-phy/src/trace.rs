@@ -25,6 +25,9 @@ struct Sample {
     baud: u8,
 }
 
+/// A signal: its index in `ids`, its width and how to read it from a sample.
+type Field = (usize, u32, fn(&Sample) -> u32);
+
 /// Writes a VCD file of one transceiver's signals.
 pub struct Tracer<W: Write> {
     vcd: vcd::Writer<W>,
@@ -86,7 +89,7 @@ impl<W: Write> Tracer<W> {
         self.vcd.timestamp(ps)?;
         let old = self.last;
         let changed = |f: fn(&Sample) -> u32| old.is_none_or(|o| f(&o) != f(&s));
-        let fields: [(usize, u32, fn(&Sample) -> u32); 9] = [
+        let fields: [Field; 9] = [
             (0, 1, |s| s.line as u32),
             (1, 1, |s| s.filtered as u32),
             (2, 1, |s| s.rx_active as u32),

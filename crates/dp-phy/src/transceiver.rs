@@ -6,8 +6,8 @@
 //!   telegram (SD1/SD2/SD3/SD4; an SC does not count) arrives complete and error-free; any error
 //!   during the trial returns to searching. Noise can start a trial but never lock.
 //! - While **locked**, the baud-control watchdog (ticks of 10 ms) is restarted by every good
-//!   telegram; when it expires the transceiver searches again, so a master that changes its rate
-//!   is followed.
+//!   telegram; when it expires (between telegrams: a long one at 9.6k outlasts it) the
+//!   transceiver searches again, so a master that changes its rate is followed.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
 //! - A response handed to [`Transceiver::respond`] starts no earlier than min TSDR bit times after
@@ -231,7 +231,11 @@ impl Transceiver {
     /// The tick at which a waiting response may start.
     fn response_start(&self) -> Option<Tick> {
         let not_before = self.pending_not_before?;
-        let tsdr = self.tx.as_ref()?.timing.clocks_for(self.min_tsdr_bits as u64, 1);
+        let tsdr = self
+            .tx
+            .as_ref()?
+            .timing
+            .clocks_for(self.min_tsdr_bits as u64, 1);
         Some(not_before.max(self.quiet_since + tsdr))
     }
 
@@ -246,7 +250,9 @@ impl Transceiver {
 
         match self.rx {
             None => {
-                let (det, sq) = self.search.next(now, self.idle(), f.fell, f.rose, &self.search_q);
+                let (det, sq) = self
+                    .search
+                    .next(now, self.idle(), f.fell, f.rose, &self.search_q);
                 self.search_q = sq;
                 if !f.level {
                     self.quiet_since = now + 1;
@@ -286,7 +292,9 @@ impl Transceiver {
                     let d = self.delimiter.on_idle(self.idle(), now);
                     self.on_delivery(d, &mut out);
                 }
-                if now >= self.watchdog_at {
+                // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
+                // the watchdog, so it expires only between telegrams.
+                if now >= self.watchdog_at && !self.delimiter.inside() {
                     self.stats.watchdog_expiries += 1;
                     self.search_again(&mut out);
                 }
@@ -386,7 +394,9 @@ impl Transceiver {
             }
             Some(_) => Tick::MAX,
         };
-        quiet = quiet.min(self.watchdog_at.saturating_sub(now));
+        if !self.delimiter.inside() {
+            quiet = quiet.min(self.watchdog_at.saturating_sub(now));
+        }
         if let Some(start) = self.response_start() {
             quiet = quiet.min(start.saturating_sub(now));
         }

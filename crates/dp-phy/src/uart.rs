@@ -170,7 +170,10 @@ impl UartRx {
         } else {
             None
         };
-        let end = now + self.timing.ticks_until(ph_at_stop_middle, self.timing.modulo);
+        let end = now
+            + self
+                .timing
+                .ticks_until(ph_at_stop_middle, self.timing.modulo);
         RxChar {
             byte,
             error,
@@ -263,7 +266,10 @@ impl UartTx {
     /// # Panics
     /// When a transmission is under way: the caller owns the half-duplex schedule.
     pub fn send(&mut self, idle_bits: u32, bytes: &[u8], faults: &[(u16, CharFault)]) {
-        assert!(!self.busy(), "UartTx::send while a transmission is under way");
+        assert!(
+            !self.busy(),
+            "UartTx::send while a transmission is under way"
+        );
         self.buf.clear();
         self.buf.extend_from_slice(bytes);
         self.faults.clear();
@@ -388,7 +394,12 @@ mod tests {
 
     #[test]
     fn a_flipped_bit_is_a_parity_error() {
-        let got = loopback(Baud::B1500000, 0, &[0x68, 0x12, 0x34], &[(1, CharFault::FlipBit(3))]);
+        let got = loopback(
+            Baud::B1500000,
+            0,
+            &[0x68, 0x12, 0x34],
+            &[(1, CharFault::FlipBit(3))],
+        );
         let errors: Vec<_> = got.iter().map(|c| c.error).collect();
         assert_eq!(errors, [None, Some(CharError::Parity), None]);
     }

@@ -1,0 +1,464 @@
+//! The transceiver against a master's transmitter on a simulated line: autobaud at every rate,
+//! clock offsets, bit errors, noise, relock, TSYN, response timing, and fast == strict.
+
+use dp_phy::bus::{FaultInjector, FaultWindow, LineFault, Outgoing};
+use dp_phy::delimiter::Status;
+use dp_phy::testbench::{random_telegram, Kind, Testbench};
+use dp_phy::timing::DEFAULT_CLOCK_HZ;
+use dp_phy::uart::CharFault;
+use dp_phy::{Baud, BaudState, BitTiming, Config};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+const CLOCK: u32 = DEFAULT_CLOCK_HZ;
+
+fn bench(baud: Baud, ppm: i32) -> Testbench {
+    Testbench::new(
+        Config::default(),
+        BitTiming::new(CLOCK, baud, ppm),
+        FaultInjector::none(),
+    )
+}
+
+/// Run `replay` on a traced bench and leave its waveform in the test's temporary directory.
+fn trace_run(name: &str, replay: impl FnOnce(&mut Testbench)) {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let path = dir.join(format!("{name}.vcd"));
+    let file = std::fs::File::create(&path).expect("create waveform");
+    let mut tb = bench(Baud::B1500000, 0);
+    tb.trace_to(Box::new(std::io::BufWriter::new(file)))
+        .unwrap();
+    replay(&mut tb);
+    tb.finish_trace().unwrap();
+    eprintln!("waveform: {}", path.display());
+}
+
+/// The lock happened once, to `baud`, when the first telegram ended.
+fn assert_locked_on_first(tb: &Testbench, baud: Baud) {
+    let first = &tb.delivered[0];
+    assert_eq!(
+        first.status,
+        Status::Good,
+        "first telegram {:02x?}",
+        first.bytes
+    );
+    let locked: Vec<_> = tb
+        .baud_log
+        .iter()
+        .filter(|(_, s)| matches!(s, BaudState::Locked(_)))
+        .collect();
+    assert_eq!(locked.len(), 1, "{:?}", tb.baud_log);
+    assert_eq!(locked[0].1, BaudState::Locked(baud));
+    // Delivered (and locked) at the last vote in the stop bit (8/16 or 9/16 of it); `end` is
+    // where that bit ends.
+    let t = BitTiming::new(CLOCK, baud, 0);
+    let early = first.end - locked[0].0;
+    let window = t.clocks_for(7, 16).saturating_sub(2)..=t.clocks_for(8, 16) + 2;
+    assert!(
+        window.contains(&early),
+        "locked {early} clocks before the end"
+    );
+    assert_eq!(
+        tb.baud_log[0].1,
+        BaudState::Trial(baud),
+        "trial on its first character"
+    );
+}
+
+#[test]
+fn every_rate_locks_on_the_first_character_and_delivers_every_kind_bit_exact() {
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    for baud in Baud::ALL {
+        for ppm in [-5000, 0, 5000] {
+            let mut tb = bench(baud, ppm);
+            let mut sent = Vec::new();
+            let lead = rng.gen_range(40..80);
+            // The first telegram of each run is each SD type in turn; the rest are random.
+            for i in 0..12 {
+                let kind = if i < 4 {
+                    [Kind::Sd1, Kind::Sd2, Kind::Sd3, Kind::Sd4][(baud.index() + i) % 4]
+                } else {
+                    Kind::ALL[rng.gen_range(0..5)]
+                };
+                let t = {
+                    let n = rng.gen_range(1..=246);
+                    random_telegram(&mut rng, kind, n)
+                };
+                tb.send(if i == 0 { lead } else { 33 }, &t);
+                sent.push(t);
+            }
+            // Random phase: the master starts at an arbitrary tick.
+            tb.run_until(rng.gen_range(0..5000), true);
+            tb.run_out(40, true);
+            assert_eq!(tb.good(), sent, "{baud} {ppm} ppm");
+            assert_locked_on_first(&tb, baud);
+        }
+    }
+}
+
+#[test]
+fn bit_errors_are_never_delivered_as_good_and_the_next_clean_telegram_is() {
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    for baud in Baud::ALL {
+        let mut tb = bench(baud, 3000);
+        let mut clean = Vec::new();
+        let lock = random_telegram(&mut rng, Kind::Sd2, 10);
+        tb.send(40, &lock);
+        clean.push(lock);
+        for _ in 0..30 {
+            let bad = {
+                let n = rng.gen_range(1..40);
+                random_telegram(&mut rng, Kind::Sd2, n)
+            };
+            // One to three flipped data bits: within the Hamming distance 4 of FT1.2.
+            let faults = (0..rng.gen_range(1..=3))
+                .map(|_| {
+                    let char_index = rng.gen_range(0..bad.len() as u16);
+                    (char_index, CharFault::FlipBit(rng.gen_range(0..8)))
+                })
+                .collect();
+            tb.send_outgoing(Outgoing {
+                idle_bits: 33,
+                bytes: bad,
+                faults,
+            });
+            let next = random_telegram(&mut rng, Kind::Sd1, 0);
+            tb.send(33, &next);
+            clean.push(next);
+        }
+        tb.run_out(40, true);
+        assert_eq!(tb.good(), clean, "{baud}");
+        assert!(
+            tb.delivered
+                .iter()
+                .filter(|d| d.status != Status::Good)
+                .count()
+                >= 30
+        );
+    }
+}
+
+#[test]
+fn dropped_characters_and_a_stuck_line_are_flagged_and_the_link_recovers() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let baud = Baud::B187500;
+    let t = BitTiming::new(CLOCK, baud, 0);
+    let mut faults = FaultInjector::none();
+    let mut tb = bench(baud, 0);
+    let first = random_telegram(&mut rng, Kind::Sd2, 20);
+    tb.send(40, &first);
+    let dropped = random_telegram(&mut rng, Kind::Sd2, 20);
+    tb.send_outgoing(Outgoing {
+        idle_bits: 33,
+        bytes: dropped,
+        faults: vec![(7, CharFault::Drop)],
+    });
+    let after = random_telegram(&mut rng, Kind::Sd3, 0);
+    tb.send(33, &after);
+    // The line stuck low for 200 bits, well after those, then clean telegrams again.
+    let stuck_at = t.clocks_for(40 + 26 * 11 + 33 + 26 * 11 + 33 + 14 * 11 + 100, 1);
+    faults.add(FaultWindow {
+        start: stuck_at,
+        len: t.clocks_for(200, 1),
+        fault: LineFault::Stuck(false),
+    });
+    tb.bus.faults = faults;
+    tb.run_until(stuck_at + t.clocks_for(400, 1), true);
+    let recovered = random_telegram(&mut rng, Kind::Sd1, 0);
+    tb.send(33, &recovered);
+    tb.run_out(40, true);
+    let statuses: Vec<Status> = tb.delivered.iter().map(|d| d.status).collect();
+    assert_eq!(statuses[0], Status::Good);
+    assert_eq!(statuses[1], Status::Gap, "a dropped character is a gap");
+    assert_eq!(tb.good(), vec![first, after, recovered]);
+    assert!(
+        tb.adapter.stats().char_errors > 0,
+        "the stuck line is a break"
+    );
+}
+
+#[test]
+fn random_noise_and_glitches_never_lock() {
+    for seed in 0..4u64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut tb = bench(Baud::B12000000, 0);
+        // Random pulses of 1..6000 clocks (every rate's bit and then some), 200 ms of them.
+        let mut faults = FaultInjector::none();
+        let mut t = 100;
+        let end = CLOCK as u64 / 5;
+        while t < end {
+            let len = rng.gen_range(1..6000);
+            faults.add(FaultWindow {
+                start: t,
+                len,
+                fault: LineFault::Invert,
+            });
+            t += len + rng.gen_range(1..6000);
+        }
+        faults.glitches(seed, 0, end, 5000, 3);
+        tb.bus.faults = faults;
+        tb.run_until(end, true);
+        let locked = tb
+            .baud_log
+            .iter()
+            .any(|(_, s)| matches!(s, BaudState::Locked(_)));
+        assert!(!locked, "seed {seed}: {:?}", tb.baud_log);
+        assert!(tb.good().is_empty());
+        assert!(
+            tb.adapter.stats().search_rejects > 100,
+            "the noise was looked at"
+        );
+    }
+}
+
+#[test]
+fn glitches_shorter_than_half_a_bit_never_corrupt_a_good_telegram() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for baud in [Baud::B19200, Baud::B500000, Baud::B3000000, Baud::B12000000] {
+        let t = BitTiming::new(CLOCK, baud, 0);
+        let mut tb = bench(baud, -2000);
+        let mut sent = Vec::new();
+        for _ in 0..40 {
+            let tel = {
+                let n = rng.gen_range(1..30);
+                random_telegram(&mut rng, Kind::Sd2, n)
+            };
+            tb.send(33, &tel);
+            sent.push(tel);
+        }
+        let span = t.clocks_for(40 * (33 + 33 * 11), 1);
+        let mut faults = FaultInjector::none();
+        // About one glitch per telegram, from the second telegram on.
+        let start = t.clocks_for(33 + 34 * 11, 1);
+        faults.glitches(
+            baud.index() as u64,
+            start,
+            span,
+            40,
+            (t.clocks_per_bit() / 2 - 1).max(1),
+        );
+        tb.bus.faults = faults;
+        tb.run_out(40, true);
+        let good = tb.good();
+        for g in &good {
+            assert!(
+                sent.contains(g),
+                "{baud}: corrupted telegram delivered as good: {g:02x?}"
+            );
+        }
+        assert!(
+            good.len() > 5,
+            "{baud}: the link works between glitches ({})",
+            good.len()
+        );
+    }
+}
+
+#[test]
+fn the_adapter_follows_a_master_that_changes_rate() {
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    for (from, to) in [
+        (Baud::B1500000, Baud::B19200),
+        (Baud::B9600, Baud::B12000000),
+        (Baud::B45450, Baud::B500000),
+    ] {
+        let mut tb = bench(from, 0);
+        tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 8));
+        tb.run_out(40, true);
+        assert_eq!(tb.adapter.baud_state(), BaudState::Locked(from));
+        tb.set_master_timing(BitTiming::new(CLOCK, to, 0));
+        // Telegrams at the new rate every 10 ms until 1 s: the watchdog (200 ms) lets go first.
+        let mut sent = Vec::new();
+        for _ in 0..100 {
+            let t = random_telegram(&mut rng, Kind::Sd1, 0);
+            let idle = (to.bits_per_second() / 100).max(33);
+            tb.send(idle, &t);
+            sent.push(t);
+        }
+        tb.run_out(40, true);
+        assert_eq!(
+            tb.adapter.baud_state(),
+            BaudState::Locked(to),
+            "{from} -> {to}"
+        );
+        assert_eq!(tb.adapter.stats().watchdog_expiries, 1);
+        let good = tb.good();
+        // All the new-rate telegrams after the search resumed are delivered.
+        let lost = sent.len() - (good.len() - 1);
+        assert!(lost <= 21, "{from} -> {to}: {lost} lost");
+        assert_eq!(&good[1..], &sent[lost..]);
+    }
+}
+
+#[test]
+fn tsyn_32_idle_bits_do_not_arm_a_request_33_do() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for baud in Baud::ALL {
+        for ppm in [-5000, 5000] {
+            let mut tb = bench(baud, ppm);
+            let lock = random_telegram(&mut rng, Kind::Sd1, 0);
+            let early = random_telegram(&mut rng, Kind::Sd1, 0);
+            let ok = random_telegram(&mut rng, Kind::Sd3, 0);
+            tb.send(33, &lock);
+            tb.send(32, &early);
+            tb.send(33, &ok);
+            tb.run_out(40, true);
+            assert_eq!(
+                tb.good(),
+                vec![lock.clone(), ok.clone()],
+                "{baud} {ppm} ppm"
+            );
+            assert!(tb.adapter.stats().not_synced >= early.len() as u64);
+        }
+    }
+    // From power-up too: 32 idle bits before the first telegram are not enough.
+    let mut tb = bench(Baud::B93750, 0);
+    tb.send(32, &random_telegram(&mut rng, Kind::Sd1, 0));
+    tb.run_out(40, true);
+    assert_eq!(tb.adapter.baud_state(), BaudState::Searching);
+}
+
+#[test]
+fn a_response_waits_min_tsdr_and_drives_only_while_sending() {
+    for baud in [Baud::B9600, Baud::B1500000, Baud::B12000000] {
+        let t = BitTiming::new(CLOCK, baud, 0);
+        let mut tb = bench(baud, 0);
+        let req = [0x10, 0x08, 0x02, 0x49, 0x53, 0x16];
+        tb.send(40, &req);
+        tb.run_out(0, false);
+        while tb.delivered.is_empty() {
+            tb.step_strict();
+        }
+        let end = tb.delivered[0].end;
+        tb.adapter.set_min_tsdr(20);
+        assert!(tb.adapter.respond(&[0xE5], 0));
+        let mut first_drive = None;
+        let mut last_drive = 0;
+        while tb.adapter.responding() {
+            if tb.adapter.drive().is_some() {
+                first_drive.get_or_insert(tb.now());
+                last_drive = tb.now();
+            }
+            tb.step_strict();
+        }
+        let first = first_drive.expect("the response went out");
+        let tsdr = t.clocks_for(20, 1);
+        assert!(
+            first >= end + tsdr && first <= end + tsdr + 2,
+            "{baud}: {first} vs {end}+{tsdr}"
+        );
+        let len = last_drive + 1 - first;
+        assert!(
+            len.abs_diff(t.clocks_for(11, 1)) <= 1,
+            "{baud}: driven {len} clocks"
+        );
+        assert_eq!(tb.bus.collisions, 0);
+        assert_eq!(
+            tb.delivered.len(),
+            1,
+            "the adapter does not deliver its own echo"
+        );
+    }
+}
+
+/// Strict and fast runs of the same random stream give the same outputs.
+fn strict_equals_fast(seed: u64, baud: Baud, ppm: i32, noisy: bool) {
+    let build = || {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut tb = bench(baud, ppm);
+        let t = BitTiming::new(CLOCK, baud, 0);
+        for i in 0..6 {
+            let kind = Kind::ALL[rng.gen_range(0..5)];
+            let tel = {
+                let n = rng.gen_range(1..20);
+                random_telegram(&mut rng, kind, n)
+            };
+            let faults = if i == 3 {
+                vec![(1, CharFault::FlipBit(2))]
+            } else {
+                vec![]
+            };
+            tb.send_outgoing(Outgoing {
+                idle_bits: rng.gen_range(30..40),
+                bytes: tel,
+                faults,
+            });
+        }
+        if noisy {
+            let mut f = FaultInjector::none();
+            f.glitches(seed, 0, t.clocks_for(6 * 300, 1), 20, t.clocks_per_bit());
+            tb.bus.faults = f;
+        }
+        tb
+    };
+    let mut strict = build();
+    let mut fast = build();
+    strict.run_out(60, false);
+    fast.run_out(60, true);
+    assert_eq!(strict.now(), fast.now());
+    assert_eq!(strict.delivered, fast.delivered, "seed {seed} {baud}");
+    assert_eq!(strict.baud_log, fast.baud_log, "seed {seed} {baud}");
+    assert_eq!(strict.adapter.stats(), fast.adapter.stats());
+}
+
+#[test]
+fn fast_mode_gives_the_strict_outputs_on_random_streams() {
+    for (i, baud) in Baud::ALL.into_iter().enumerate() {
+        if baud <= Baud::B45450 {
+            continue; // the slow rates take long strictly; proptest below samples them
+        }
+        strict_equals_fast(i as u64, baud, 1000, false);
+        strict_equals_fast(100 + i as u64, baud, -4000, true);
+    }
+}
+
+#[test]
+fn a_traced_run_writes_a_vcd_waveform() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    trace_run("waveform_smoke", |tb| {
+        tb.send(40, &[0x10, 0x08, 0x02, 0x49, 0x53, 0x16]);
+        tb.run_out(40, false);
+    });
+    let vcd = std::fs::read_to_string(dir.join("waveform_smoke.vcd")).unwrap();
+    assert!(vcd.contains("$var wire 1") && vcd.contains("line") && vcd.contains("baud_state"));
+    assert!(vcd.lines().filter(|l| l.starts_with('#')).count() > 50);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    #[test]
+    fn any_rate_offset_phase_and_payload_decodes_exactly(
+        rate in 0usize..10,
+        ppm in -5000i32..=5000,
+        phase in 0u64..20_000,
+        kind in 0usize..4,
+        payload in proptest::collection::vec(any::<u8>(), 1..64),
+        seed in any::<u64>(),
+    ) {
+        let baud = Baud::ALL[rate];
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let kind = [Kind::Sd1, Kind::Sd2, Kind::Sd3, Kind::Sd4][kind];
+        let mut first = random_telegram(&mut rng, kind, payload.len());
+        if kind == Kind::Sd2 {
+            // Put the payload in, keep the FCS right.
+            let n = first.len();
+            first[7..n - 2].copy_from_slice(&payload);
+            first[n - 2] = first[4..n - 2].iter().fold(0u8, |a, &x| a.wrapping_add(x));
+        }
+        let second = random_telegram(&mut rng, Kind::Sd2, payload.len());
+        let mut tb = bench(baud, ppm);
+        tb.send(33 + (phase % 7) as u32, &first);
+        tb.send(33, &second);
+        tb.run_until(phase, true);
+        tb.run_out(40, true);
+        prop_assert_eq!(tb.good(), vec![first, second]);
+        prop_assert_eq!(tb.adapter.baud_state(), BaudState::Locked(baud));
+    }
+
+    #[test]
+    fn fast_equals_strict(seed in any::<u64>(), rate in 3usize..10, ppm in -5000i32..=5000, noisy in any::<bool>()) {
+        strict_equals_fast(seed, Baud::ALL[rate], ppm, noisy);
+    }
+}

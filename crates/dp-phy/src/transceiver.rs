@@ -275,7 +275,7 @@ impl Transceiver {
                 }
             }
             Some(rx) => {
-                let (c, rq) = rx.next(now, f.level, f.fell, &self.rx_q);
+                let (c, rq) = rx.next(now, f.level, f.fell, f.fell || f.rose, &self.rx_q);
                 if rq.active && !self.rx_q.active {
                     self.rx_idle_before = self.idle();
                 }
@@ -388,7 +388,7 @@ impl Transceiver {
         let now = self.now;
         let mut quiet = match &self.rx {
             None => self.search.quiet_for(now, &self.search_q),
-            Some(rx) if self.rx_q.active => rx.quiet_for(&self.rx_q),
+            Some(rx) if self.rx_q.active => rx.quiet_for(line, &self.rx_q),
             Some(_) if self.delimiter.inside() && line => {
                 (self.quiet_since + self.delimiter.gap_clocks + 1).saturating_sub(now)
             }

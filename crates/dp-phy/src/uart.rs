@@ -8,8 +8,12 @@
 //!                   clocks; one sample at 8/16 below that (4 clocks per bit at 12M/48 MHz)
 //! ```
 //!
-//! The receiver re-synchronises on every start edge, rejects a start bit that is 1 at its middle
-//! (false start), and reports parity, framing (stop bit 0) and break (every bit 0) per character.
+//! The receiver re-synchronises on every start edge. A start bit must stay 0 on every clock up to
+//! its last vote, or it is a false start and the receiver is ready again at once; a character
+//! whose start edge comes within a bit of a false start, or that has an edge far from a bit
+//! boundary, is reported as `Noise`: a glitch next to a start edge shifts the sampling of the
+//! whole character (several bit errors that parity may not see), and the edges show it. Parity,
+//! framing (stop bit 0) and break (every bit 0) are reported too.
 //! The transmitter drives a character stream back to back with driver enable asserted only while
 //! it sends; it can hold the line idle for a number of its own bit times first (a master's TSYN)
 //! and, for fault injection, flip a data bit or drop a character.
@@ -26,6 +30,9 @@ pub enum CharError {
     Framing,
     /// Every bit, stop bit included, was 0: the line was held low.
     Break,
+    /// The start edge came within a bit of a false start: a glitch may have moved it, so the
+    /// character's timing cannot be trusted even if its parity is right.
+    Noise,
 }
 
 /// The even-parity bit of `byte`.
@@ -72,6 +79,10 @@ pub struct RxQ {
     /// Bits 0..=10 received so far, bit i at position i.
     pub shift: u16,
     pub start: Tick,
+    /// The tick of the last false start, if any.
+    pub false_start: Option<Tick>,
+    /// This character's start edge came within a bit of a false start.
+    pub suspect: bool,
 }
 
 pub const RX_RESET: RxQ = RxQ {
@@ -81,6 +92,8 @@ pub const RX_RESET: RxQ = RxQ {
     votes: 0,
     shift: 0,
     start: 0,
+    false_start: None,
+    suspect: false,
 };
 
 /// The receiver's fixed configuration for one rate.
@@ -109,9 +122,17 @@ impl UartRx {
         }
     }
 
-    /// Next state at `now` for the filtered `level` (`fell`: it fell on this clock).
+    /// Next state at `now` for the filtered `level` (`fell`: it fell on this clock; `edge`: it
+    /// changed on this clock).
     #[inline(always)]
-    pub fn next(&self, now: Tick, level: bool, fell: bool, q: &RxQ) -> (Option<RxChar>, RxQ) {
+    pub fn next(
+        &self,
+        now: Tick,
+        level: bool,
+        fell: bool,
+        edge: bool,
+        q: &RxQ,
+    ) -> (Option<RxChar>, RxQ) {
         let mut d = *q;
         if !q.active {
             if fell {
@@ -122,11 +143,28 @@ impl UartRx {
                 d.votes = 0;
                 d.shift = 0;
                 d.start = now;
+                d.suspect = q
+                    .false_start
+                    .is_some_and(|t| now - t <= self.timing.clocks_per_bit());
             }
             return (None, d);
         }
         let m = self.timing.modulo;
         let p = q.ph + self.timing.inc;
+        if q.bit == 0 && level && 16 * q.ph < self.last_vote() * m {
+            // False start: the line rose before the start bit's last vote.
+            d.active = false;
+            d.false_start = Some(now);
+            return (None, d);
+        }
+        if edge && q.bit >= 1 {
+            // Edges belong on bit boundaries: one in the middle part of a bit means the start
+            // edge was moved (up to 3/16 of a bit of drift and sampling is allowed, and a clock).
+            let ph16 = 16 * q.ph;
+            if ph16 > 3 * m + 16 * self.timing.inc && ph16 + 16 * self.timing.inc < 13 * m {
+                d.suspect = true;
+            }
+        }
         let mut out = None;
         let points = self.sample_points();
         for (i, &pt) in points.iter().enumerate() {
@@ -138,11 +176,11 @@ impl UartRx {
                     d.votes = 0;
                     d.shift |= (one as u16) << q.bit;
                     if q.bit == 0 && one {
-                        // False start: a glitch, not a character.
                         d.active = false;
+                        d.false_start = Some(now);
                     } else if q.bit == 10 {
                         d.active = false;
-                        out = Some(self.finish(now, p, d.shift, q.start));
+                        out = Some(self.finish(now, p, d.shift, q.start, q.suspect));
                     }
                 }
                 break;
@@ -157,7 +195,18 @@ impl UartRx {
         (out, d)
     }
 
-    fn finish(&self, now: Tick, ph_at_stop_middle: u64, shift: u16, start: Tick) -> RxChar {
+    fn last_vote(&self) -> u64 {
+        *self.sample_points().last().expect("at least one sample point")
+    }
+
+    fn finish(
+        &self,
+        now: Tick,
+        ph_at_stop_middle: u64,
+        shift: u16,
+        start: Tick,
+        suspect: bool,
+    ) -> RxChar {
         let byte = (shift >> 1) as u8;
         let parity = shift >> 9 & 1 == 1;
         let stop = shift >> 10 & 1 == 1;
@@ -167,6 +216,8 @@ impl UartRx {
             Some(CharError::Framing)
         } else if parity != parity_bit(byte) {
             Some(CharError::Parity)
+        } else if suspect {
+            Some(CharError::Noise)
         } else {
             None
         };
@@ -182,12 +233,15 @@ impl UartRx {
         }
     }
 
-    /// Ticks with a constant line before this receiver does more than count (0: tick now).
-    pub fn quiet_for(&self, q: &RxQ) -> Tick {
+    /// Ticks with the line constant at `level` before this receiver does more than count.
+    pub fn quiet_for(&self, level: bool, q: &RxQ) -> Tick {
         if !q.active {
             return Tick::MAX;
         }
         let m = self.timing.modulo;
+        if q.bit == 0 && level && 16 * q.ph < self.last_vote() * m {
+            return 0;
+        }
         let next_point = self
             .sample_points()
             .iter()
@@ -369,7 +423,7 @@ mod tests {
         while tx.busy() || rq.active {
             let line = tx.drive().unwrap_or(true);
             let (f, fd) = crate::filter::next(line, len, &fq);
-            let (c, rd) = rx.next(now, f.level, f.fell, &rq);
+            let (c, rd) = rx.next(now, f.level, f.fell, f.fell || f.rose, &rq);
             fq = fd;
             rq = rd;
             got.extend(c);

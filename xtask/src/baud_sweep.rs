@@ -22,7 +22,9 @@ use std::fmt::Write as _;
 enum Scenario {
     PowerUp,
     /// The adapter is locked at `from`, then the master switches to the case's rate.
-    RateChange { from: Baud },
+    RateChange {
+        from: Baud,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -50,9 +52,17 @@ const TELEGRAMS: usize = 12;
 const CHANGE_TELEGRAMS: usize = 40;
 
 fn cases(quick: bool) -> Vec<Case> {
-    let offsets: &[i32] = if quick { &[-5000, 0, 5000] } else { &[-5000, -2500, 0, 2500, 5000] };
+    let offsets: &[i32] = if quick {
+        &[-5000, 0, 5000]
+    } else {
+        &[-5000, -2500, 0, 2500, 5000]
+    };
     let noises: &[u32] = if quick { &[0, 1] } else { &[0, 1, 3] };
-    let phases: &[u64] = if quick { &[0, 777] } else { &[0, 1, 2, 3, 777, 12_345] };
+    let phases: &[u64] = if quick {
+        &[0, 777]
+    } else {
+        &[0, 1, 2, 3, 777, 12_345]
+    };
     let mut out = Vec::new();
     let mut seed = 0;
     for (i, &baud) in Baud::ALL.iter().enumerate() {
@@ -63,7 +73,14 @@ fn cases(quick: bool) -> Vec<Case> {
                 for &noise in noises {
                     for &phase in phases {
                         seed += 1;
-                        out.push(Case { scenario, baud, ppm, noise, phase, seed });
+                        out.push(Case {
+                            scenario,
+                            baud,
+                            ppm,
+                            noise,
+                            phase,
+                            seed,
+                        });
                     }
                 }
             }
@@ -113,7 +130,13 @@ fn run_case(c: &Case) -> Outcome {
         let span = target.clocks_for(count as u64 * bits_per_telegram, 1);
         let mut f = FaultInjector::none();
         let max_len = (target.clocks_per_bit() / 2).saturating_sub(1).max(1);
-        f.glitches(c.seed, from_tick, from_tick + span, count * c.noise as usize, max_len);
+        f.glitches(
+            c.seed,
+            from_tick,
+            from_tick + span,
+            count * c.noise as usize,
+            max_len,
+        );
         tb.bus.faults = f;
     }
     tb.run_out(40, true);
@@ -139,10 +162,13 @@ fn run_case(c: &Case) -> Outcome {
         // before the lock tick).
         o.lost_before_lock = starts.iter().filter(|&&s| s < t).count().saturating_sub(1);
         let first_start = starts.first().copied().unwrap_or(from_tick);
-        o.lock_time_bits = (t - first_start) as f64 * c.baud.bits_per_second() as f64
-            / DEFAULT_CLOCK_HZ as f64;
+        o.lock_time_bits =
+            (t - first_start) as f64 * c.baud.bits_per_second() as f64 / DEFAULT_CLOCK_HZ as f64;
     }
-    let before: Vec<Vec<u8>> = tb.sent[..from_sent].iter().map(|(_, o)| o.bytes.clone()).collect();
+    let before: Vec<Vec<u8>> = tb.sent[..from_sent]
+        .iter()
+        .map(|(_, o)| o.bytes.clone())
+        .collect();
     o.corrupt = tb
         .good()
         .iter()
@@ -179,7 +205,9 @@ pub fn run(args: &[String]) -> Result<()> {
         if quick { "quick, " } else { "" }
     );
 
-    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(4);
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(4);
     let done = std::sync::atomic::AtomicUsize::new(0);
     let mut outcomes: Vec<(usize, Outcome)> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..workers)
@@ -191,7 +219,7 @@ pub fn run(args: &[String]) -> Result<()> {
                     for (k, c) in mine.iter().enumerate().filter(|(k, _)| k % workers == w) {
                         out.push((k, run_case(c)));
                         let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                        if n % 20 == 0 || n == mine.len() {
+                        if n.is_multiple_of(20) || n == mine.len() {
                             println!("  {n}/{} cases", mine.len());
                         }
                     }
@@ -199,7 +227,10 @@ pub fn run(args: &[String]) -> Result<()> {
                 })
             })
             .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("worker")).collect()
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("worker"))
+            .collect()
     });
     outcomes.sort_by_key(|(k, _)| *k);
 
@@ -241,7 +272,11 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     let dir = project_root().join("target/baud-sweep");
     std::fs::create_dir_all(&dir)?;
-    let stem = if shards == 1 { "sweep".to_string() } else { format!("sweep-{shard}-of-{shards}") };
+    let stem = if shards == 1 {
+        "sweep".to_string()
+    } else {
+        format!("sweep-{shard}-of-{shards}")
+    };
     let csv_path = dir.join(format!("{stem}.csv"));
     std::fs::write(&csv_path, csv)?;
     let svg_path = dir.join(format!("{stem}.svg"));
@@ -257,6 +292,9 @@ pub fn run(args: &[String]) -> Result<()> {
     Ok(())
 }
 
+/// A named line of (rate index, mean lock time in bits, mean telegrams lost).
+type Series = (String, Vec<(f64, f64, f64)>);
+
 /// Two panels: mean lock time (bit times) and mean telegrams lost before the lock, per rate, one
 /// line per scenario and clock offset.
 fn plot(path: &std::path::Path, cases: &[Case], outcomes: &[(usize, Outcome)]) -> Result<()> {
@@ -264,7 +302,7 @@ fn plot(path: &std::path::Path, cases: &[Case], outcomes: &[(usize, Outcome)]) -
     let root = SVGBackend::new(path, (1200, 520)).into_drawing_area();
     root.fill(&WHITE)?;
     let (left, right) = root.split_horizontally(600);
-    let mut series: Vec<(String, Vec<(f64, f64, f64)>)> = Vec::new();
+    let mut series: Vec<Series> = Vec::new();
     let mut offsets: Vec<i32> = cases.iter().map(|c| c.ppm).collect();
     offsets.sort();
     offsets.dedup();
@@ -276,7 +314,9 @@ fn plot(path: &std::path::Path, cases: &[Case], outcomes: &[(usize, Outcome)]) -
                     .iter()
                     .filter(|(k, _)| {
                         let c = &cases[*k];
-                        c.baud == baud && c.ppm == ppm && matches!(c.scenario, Scenario::RateChange { .. }) == change
+                        c.baud == baud
+                            && c.ppm == ppm
+                            && matches!(c.scenario, Scenario::RateChange { .. }) == change
                     })
                     .map(|(_, o)| o)
                     .collect();
@@ -288,34 +328,61 @@ fn plot(path: &std::path::Path, cases: &[Case], outcomes: &[(usize, Outcome)]) -
                 let lost = sel.iter().map(|o| o.lost_before_lock as f64).sum::<f64>() / n;
                 pts.push((baud.index() as f64, time.max(1.0), lost));
             }
-            let name = format!("{} {ppm:+} ppm", if change { "rate change" } else { "power-up" });
+            let name = format!(
+                "{} {ppm:+} ppm",
+                if change { "rate change" } else { "power-up" }
+            );
             series.push((name, pts));
         }
     }
-    let max_time = series.iter().flat_map(|(_, p)| p.iter().map(|x| x.1)).fold(10.0, f64::max);
-    let max_lost = series.iter().flat_map(|(_, p)| p.iter().map(|x| x.2)).fold(1.0, f64::max);
-    let label = |x: &f64| Baud::ALL.get(*x as usize).map_or(String::new(), |b| b.to_string());
+    let max_time = series
+        .iter()
+        .flat_map(|(_, p)| p.iter().map(|x| x.1))
+        .fold(10.0, f64::max);
+    let max_lost = series
+        .iter()
+        .flat_map(|(_, p)| p.iter().map(|x| x.2))
+        .fold(1.0, f64::max);
+    let label = |x: &f64| {
+        Baud::ALL
+            .get(*x as usize)
+            .map_or(String::new(), |b| b.to_string())
+    };
     let mut time_chart = ChartBuilder::on(&left)
         .caption("lock time (bit times, mean)", ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(30)
         .y_label_area_size(60)
         .build_cartesian_2d(-0.5f64..9.5, (1.0f64..max_time * 2.0).log_scale())?;
-    time_chart.configure_mesh().x_labels(10).x_label_formatter(&label).draw()?;
+    time_chart
+        .configure_mesh()
+        .x_labels(10)
+        .x_label_formatter(&label)
+        .draw()?;
     let mut lost_chart = ChartBuilder::on(&right)
         .caption("telegrams lost before lock (mean)", ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(30)
         .y_label_area_size(40)
         .build_cartesian_2d(-0.5f64..9.5, 0f64..max_lost * 1.2)?;
-    lost_chart.configure_mesh().x_labels(10).x_label_formatter(&label).draw()?;
+    lost_chart
+        .configure_mesh()
+        .x_labels(10)
+        .x_label_formatter(&label)
+        .draw()?;
     for (i, (name, pts)) in series.iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();
         time_chart
-            .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), color.stroke_width(2)))?
+            .draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.0, p.1)),
+                color.stroke_width(2),
+            ))?
             .label(name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 15, y)], color));
-        lost_chart.draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.2)), color.stroke_width(2)))?;
+        lost_chart.draw_series(LineSeries::new(
+            pts.iter().map(|p| (p.0, p.2)),
+            color.stroke_width(2),
+        ))?;
     }
     time_chart
         .configure_series_labels()

@@ -196,7 +196,10 @@ impl UartRx {
     }
 
     fn last_vote(&self) -> u64 {
-        *self.sample_points().last().expect("at least one sample point")
+        *self
+            .sample_points()
+            .last()
+            .expect("at least one sample point")
     }
 
     fn finish(

@@ -112,8 +112,7 @@ impl UartRx {
         }
     }
 
-    /// The receiver ready for the stop bit of a character that somebody else sampled up to its
-    /// middle: used when autobaud hands over the first character.
+    /// Where in a bit (sixteenths) this receiver samples.
     fn sample_points(&self) -> &'static [u64] {
         if self.vote {
             &VOTE_POINTS

@@ -23,15 +23,18 @@ fn bench(baud: Baud, ppm: i32) -> Testbench {
 
 /// Run `replay` on a traced bench and leave its waveform in the test's temporary directory.
 fn trace_run(name: &str, replay: impl FnOnce(&mut Testbench)) {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
-    let path = dir.join(format!("{name}.vcd"));
+    trace_bench(name, bench(Baud::B1500000, 0), replay);
+}
+
+/// Trace `tb` through `replay` into `<tmp>/<name>.vcd`.
+fn trace_bench(name: &str, mut tb: Testbench, replay: impl FnOnce(&mut Testbench)) {
+    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{name}.vcd"));
     let file = std::fs::File::create(&path).expect("create waveform");
-    let mut tb = bench(Baud::B1500000, 0);
     tb.trace_to(Box::new(std::io::BufWriter::new(file)))
         .unwrap();
     replay(&mut tb);
     tb.finish_trace().unwrap();
-    eprintln!("waveform: {}", path.display());
+    eprintln!("{name}: waveform in {}", path.display());
 }
 
 /// Run `build`'s bench fast and apply `check`; when it fails, run the same bench again strictly
@@ -41,14 +44,7 @@ fn check_or_dump(name: &str, build: impl Fn() -> Testbench, check: impl Fn(&Test
     tb.run_out(40, true);
     let failed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| check(&tb)));
     if let Err(e) = failed {
-        let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{name}.vcd"));
-        let file = std::fs::File::create(&path).expect("create waveform");
-        let mut tb = build();
-        tb.trace_to(Box::new(std::io::BufWriter::new(file)))
-            .unwrap();
-        tb.run_out(40, false);
-        tb.finish_trace().unwrap();
-        eprintln!("{name}: waveform in {}", path.display());
+        trace_bench(name, build(), |tb| tb.run_out(40, false));
         std::panic::resume_unwind(e);
     }
 }

@@ -43,6 +43,83 @@ pub const BROADCAST_ADDRESS: u8 = 127;
 /// The highest address a station may hold (126 is the default of a slave without one).
 pub const MAX_STATION_ADDRESS: u8 = 126;
 
+/// DP service access points of a slave and of a master (PROTOCOL.md, "DP service access points").
+pub mod sap {
+    /// Set_Slave_Add.
+    pub const SET_SLAVE_ADD: u8 = 55;
+    /// Rd_Inp: read the slave's inputs.
+    pub const RD_INP: u8 = 56;
+    /// Rd_Outp: read the slave's outputs.
+    pub const RD_OUTP: u8 = 57;
+    /// Global_Control (broadcast or multicast).
+    pub const GLOBAL_CONTROL: u8 = 58;
+    /// Get_Cfg.
+    pub const GET_CFG: u8 = 59;
+    /// Slave_Diag.
+    pub const SLAVE_DIAG: u8 = 60;
+    /// Set_Prm.
+    pub const SET_PRM: u8 = 61;
+    /// Chk_Cfg.
+    pub const CHK_CFG: u8 = 62;
+    /// The class 1 master's SAP for DP-V0 management services (MS0).
+    pub const MASTER_MS0: u8 = 62;
+}
+
+/// Set_Prm byte 0, Station_Status.
+pub mod station_status {
+    pub const WD_ON: u8 = 0x08;
+    pub const FREEZE_REQ: u8 = 0x10;
+    pub const SYNC_REQ: u8 = 0x20;
+    pub const UNLOCK_REQ: u8 = 0x40;
+    pub const LOCK_REQ: u8 = 0x80;
+}
+
+/// The fixed part of a Set_Prm data unit: Station_Status, WD_Fact1, WD_Fact2, min TSDR,
+/// Ident_Number (2), Group_Ident. User parameters follow.
+pub const SET_PRM_FIXED_LEN: usize = 7;
+
+/// The watchdog base of DP-V0: WD_Fact1 x WD_Fact2 x 10 ms.
+pub const WATCHDOG_BASE_MS: u32 = 10;
+
+/// Global_Control byte 0, Control_Command.
+pub mod control_command {
+    pub const CLEAR_DATA: u8 = 0x02;
+    pub const UNFREEZE: u8 = 0x04;
+    pub const FREEZE: u8 = 0x08;
+    pub const UNSYNC: u8 = 0x10;
+    pub const SYNC: u8 = 0x20;
+}
+
+/// The standard diagnosis bytes (Slave_Diag), PROTOCOL.md "Slave_Diag".
+pub mod diag {
+    /// Length of the standard part: St1, St2, St3, Master_Add, Ident_Number (2).
+    pub const STANDARD_LEN: usize = 6;
+    /// Master_Add before any master has parameterised the slave.
+    pub const NO_MASTER: u8 = 0xFF;
+
+    pub const ST1_STATION_NON_EXISTENT: u8 = 0x01;
+    pub const ST1_NOT_READY: u8 = 0x02;
+    pub const ST1_CFG_FAULT: u8 = 0x04;
+    pub const ST1_EXT_DIAG: u8 = 0x08;
+    pub const ST1_NOT_SUPPORTED: u8 = 0x10;
+    pub const ST1_INVALID_SLAVE_RESPONSE: u8 = 0x20;
+    pub const ST1_PRM_FAULT: u8 = 0x40;
+    pub const ST1_MASTER_LOCK: u8 = 0x80;
+
+    pub const ST2_PRM_REQ: u8 = 0x01;
+    pub const ST2_STAT_DIAG: u8 = 0x02;
+    pub const ST2_ALWAYS_ONE: u8 = 0x04;
+    pub const ST2_WD_ON: u8 = 0x08;
+    pub const ST2_FREEZE_MODE: u8 = 0x10;
+    pub const ST2_SYNC_MODE: u8 = 0x20;
+    pub const ST2_DEACTIVATED: u8 = 0x80;
+
+    pub const ST3_EXT_DIAG_OVERFLOW: u8 = 0x80;
+}
+
+/// The largest data unit of one telegram (SD2 of the largest LE minus DA, SA, FC).
+pub const MAX_DATA_UNIT_LEN: usize = SD2_MAX_LE as usize - 3;
+
 /// The ten PROFIBUS DP baud rates, fastest last, with the numbers the standard and the GSD use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -52,8 +52,8 @@ pub fn io_sizes(cfg: &[u8]) -> Result<IoSizes, CfgError> {
                 if present {
                     let (&len_byte, tail) = rest.split_first().ok_or(CfgError::Truncated)?;
                     rest = tail;
-                    *total += ((len_byte & 0x3F) as usize + 1)
-                        * if len_byte & 0x40 != 0 { 2 } else { 1 };
+                    *total +=
+                        ((len_byte & 0x3F) as usize + 1) * if len_byte & 0x40 != 0 { 2 } else { 1 };
                 }
             }
             rest = rest.get(manufacturer..).ok_or(CfgError::Truncated)?;
@@ -95,7 +95,10 @@ mod tests {
     fn special_format() {
         // Out 3 words and in 2 bytes, then 2 manufacturer bytes.
         assert_eq!(io_sizes(&[0xC2, 0x42, 0x01, 0xAA, 0xBB]), io(2, 6));
-        assert_eq!(io_sizes(&[0xC2, 0x42, 0x01, 0xAA]), Err(CfgError::Truncated));
+        assert_eq!(
+            io_sizes(&[0xC2, 0x42, 0x01, 0xAA]),
+            Err(CfgError::Truncated)
+        );
         assert_eq!(io_sizes(&[0x40]), Err(CfgError::Truncated));
     }
 

@@ -711,10 +711,14 @@ mod tests {
     }
 
     fn diag(slave: &mut Slave<EchoApp>, from: u8) -> Vec<u8> {
-        match send(slave, 0, DataRepr {
-            sa: from,
-            ..service(Sap::SLAVE_DIAG, &[])
-        }) {
+        match send(
+            slave,
+            0,
+            DataRepr {
+                sa: from,
+                ..service(Sap::SLAVE_DIAG, &[])
+            },
+        ) {
             Some(Owned::Data(S::DataLow, d)) => d,
             other => panic!("diag: {other:?}"),
         }
@@ -722,23 +726,33 @@ mod tests {
 
     /// Set_Prm and Chk_Cfg PPO1 from MASTER at t = 0.
     fn into_data_exchange(slave: &mut Slave<EchoApp>) {
-        assert_eq!(send(slave, 0, service(Sap::SET_PRM, &SET_PRM)), Some(Owned::ShortAck));
+        assert_eq!(
+            send(slave, 0, service(Sap::SET_PRM, &SET_PRM)),
+            Some(Owned::ShortAck)
+        );
         assert_eq!(slave.state(), State::WaitCfg);
-        assert_eq!(send(slave, 0, service(Sap::CHK_CFG, PPO1)), Some(Owned::ShortAck));
+        assert_eq!(
+            send(slave, 0, service(Sap::CHK_CFG, PPO1)),
+            Some(Owned::ShortAck)
+        );
         assert_eq!(slave.state(), State::DataExch);
     }
 
     fn data_exchange(slave: &mut Slave<EchoApp>, now: u64, outputs: &[u8]) -> Option<Owned> {
-        send(slave, now, DataRepr {
-            ssap: None,
-            fc: FrameControl::Request {
-                fcb: false,
-                fcv: false,
-                function: F::SrdHigh,
+        send(
+            slave,
+            now,
+            DataRepr {
+                ssap: None,
+                fc: FrameControl::Request {
+                    fcb: false,
+                    fcv: false,
+                    function: F::SrdHigh,
+                },
+                payload: outputs,
+                ..REQ_TEMPL
             },
-            payload: outputs,
-            ..REQ_TEMPL
-        })
+        )
     }
 
     #[test]
@@ -754,7 +768,11 @@ mod tests {
     fn protocol_md_fdl_status_reply() {
         let mut s = slave();
         let mut out = [0u8; 8];
-        let n = s.handle(Instant::ZERO, &[0x10, 0x08, 0x02, 0x49, 0x53, 0x16], &mut out);
+        let n = s.handle(
+            Instant::ZERO,
+            &[0x10, 0x08, 0x02, 0x49, 0x53, 0x16],
+            &mut out,
+        );
         assert_eq!(&out[..n.unwrap()], [0x10, 0x02, 0x08, 0x00, 0x0A, 0x16]);
     }
 
@@ -764,7 +782,13 @@ mod tests {
         into_data_exchange(&mut s);
         // Not ready cleared, WD_On, the parameterising master, our ident.
         assert_eq!(diag(&mut s, MASTER), [0x00, 0x0C, 0x00, MASTER, 0x80, 0xE0]);
-        assert_eq!(s.io_sizes(), IoSizes { inputs: 12, outputs: 12 });
+        assert_eq!(
+            s.io_sizes(),
+            IoSizes {
+                inputs: 12,
+                outputs: 12
+            }
+        );
         assert_eq!(s.min_tsdr_bits(), 11);
         let outputs: Vec<u8> = (0..12).collect();
         let want: Vec<u8> = outputs.iter().map(|b| !b).collect();
@@ -780,7 +804,10 @@ mod tests {
         let mut s = slave();
         let mut prm = SET_PRM;
         prm[5] = 0xE1;
-        assert_eq!(send(&mut s, 0, service(Sap::SET_PRM, &prm)), Some(Owned::ShortAck));
+        assert_eq!(
+            send(&mut s, 0, service(Sap::SET_PRM, &prm)),
+            Some(Owned::ShortAck)
+        );
         assert_eq!(s.state(), State::WaitPrm);
         let d = diag(&mut s, MASTER);
         assert_eq!(d[0], diag::ST1_PRM_FAULT | diag::ST1_NOT_READY);
@@ -796,16 +823,25 @@ mod tests {
         s.app_mut().reject_user_prm_byte = Some(0x00);
         send(&mut s, 0, service(Sap::SET_PRM, &SET_PRM));
         assert_eq!(s.state(), State::WaitPrm);
-        assert_eq!(diag(&mut s, MASTER)[0] & diag::ST1_PRM_FAULT, diag::ST1_PRM_FAULT);
+        assert_eq!(
+            diag(&mut s, MASTER)[0] & diag::ST1_PRM_FAULT,
+            diag::ST1_PRM_FAULT
+        );
         let mut s = slave();
         send(&mut s, 0, service(Sap::SET_PRM, &SET_PRM[..6]));
-        assert_eq!(diag(&mut s, MASTER)[0] & diag::ST1_PRM_FAULT, diag::ST1_PRM_FAULT);
+        assert_eq!(
+            diag(&mut s, MASTER)[0] & diag::ST1_PRM_FAULT,
+            diag::ST1_PRM_FAULT
+        );
         // WD_On with a zero factor.
         let mut s = slave();
         let mut prm = SET_PRM;
         prm[2] = 0;
         send(&mut s, 0, service(Sap::SET_PRM, &prm));
-        assert_eq!(diag(&mut s, MASTER)[0] & diag::ST1_PRM_FAULT, diag::ST1_PRM_FAULT);
+        assert_eq!(
+            diag(&mut s, MASTER)[0] & diag::ST1_PRM_FAULT,
+            diag::ST1_PRM_FAULT
+        );
     }
 
     #[test]
@@ -820,7 +856,10 @@ mod tests {
     fn wrong_configuration_sets_cfg_fault() {
         let mut s = slave();
         send(&mut s, 0, service(Sap::SET_PRM, &SET_PRM));
-        assert_eq!(send(&mut s, 0, service(Sap::CHK_CFG, &[0xF3, 0xF5])), Some(Owned::ShortAck));
+        assert_eq!(
+            send(&mut s, 0, service(Sap::CHK_CFG, &[0xF3, 0xF5])),
+            Some(Owned::ShortAck)
+        );
         assert_eq!(s.state(), State::WaitPrm);
         let d = diag(&mut s, MASTER);
         assert_eq!(d[0], diag::ST1_CFG_FAULT | diag::ST1_NOT_READY);
@@ -879,17 +918,24 @@ mod tests {
         };
         let mut prm = SET_PRM;
         prm[6] = 0x02;
-        assert_eq!(send(&mut s, 0, other(Sap::SET_PRM, &prm)), Some(Owned::ShortAck));
+        assert_eq!(
+            send(&mut s, 0, other(Sap::SET_PRM, &prm)),
+            Some(Owned::ShortAck)
+        );
         assert_eq!(s.state(), State::DataExch);
         assert_eq!(s.owner(), Some(MASTER));
         // Data_Exchange of another master: SAP not activated, no outputs taken.
         let count = s.app().output_count;
-        let reply = send(&mut s, 0, DataRepr {
-            sa: OTHER_MASTER,
-            ssap: None,
-            payload: &[9; 12],
-            ..REQ_TEMPL
-        });
+        let reply = send(
+            &mut s,
+            0,
+            DataRepr {
+                sa: OTHER_MASTER,
+                ssap: None,
+                payload: &[9; 12],
+                ..REQ_TEMPL
+            },
+        );
         assert_eq!(reply, Some(Owned::Data(S::SapNotActivated, vec![])));
         assert_eq!(s.app().output_count, count);
         // Its diagnosis shows Master_Lock and who holds it; the owner's does not.
@@ -909,12 +955,19 @@ mod tests {
         assert_eq!(s.state(), State::WaitPrm);
         assert_eq!(s.owner(), None);
         assert!(!s.is_locked());
-        assert_eq!(s.app().fail_safes.as_slice(), [FailSafeReason::LeftDataExchange]);
+        assert_eq!(
+            s.app().fail_safes.as_slice(),
+            [FailSafeReason::LeftDataExchange]
+        );
         // Another master may now parameterise it.
-        send(&mut s, 6, DataRepr {
-            sa: OTHER_MASTER,
-            ..service(Sap::SET_PRM, &SET_PRM)
-        });
+        send(
+            &mut s,
+            6,
+            DataRepr {
+                sa: OTHER_MASTER,
+                ..service(Sap::SET_PRM, &SET_PRM)
+            },
+        );
         assert_eq!(s.owner(), Some(OTHER_MASTER));
     }
 
@@ -930,7 +983,10 @@ mod tests {
         assert_eq!(s.state(), State::DataExch);
         assert!(s.poll(Instant::from_millis(1900)));
         assert_eq!(s.state(), State::WaitPrm);
-        assert_eq!(s.app().fail_safes.as_slice(), [FailSafeReason::WatchdogExpired]);
+        assert_eq!(
+            s.app().fail_safes.as_slice(),
+            [FailSafeReason::WatchdogExpired]
+        );
         assert!(s.app().outputs.is_empty());
         assert_eq!(s.poll_at(), None);
         assert_eq!(s.owner(), None);
@@ -995,7 +1051,11 @@ mod tests {
         data_exchange(&mut s, 1, &[1; 4]);
         assert_eq!(send(&mut s, 2, gc(&[gc::SYNC, 0])), Some(Owned::ShortAck));
         data_exchange(&mut s, 3, &[2; 4]);
-        assert_eq!(s.app().outputs.as_slice(), [1; 4], "held until the next Sync");
+        assert_eq!(
+            s.app().outputs.as_slice(),
+            [1; 4],
+            "held until the next Sync"
+        );
         send(&mut s, 4, gc(&[gc::SYNC, 0]));
         assert_eq!(s.app().outputs.as_slice(), [2; 4]);
         // Freeze latches the inputs (complement of [2; 4]).
@@ -1004,7 +1064,10 @@ mod tests {
             data_exchange(&mut s, 6, &[3; 4]),
             Some(Owned::Data(S::DataLow, vec![!2; 4]))
         );
-        assert_eq!(diag(&mut s, MASTER)[1] & diag::ST2_FREEZE_MODE, diag::ST2_FREEZE_MODE);
+        assert_eq!(
+            diag(&mut s, MASTER)[1] & diag::ST2_FREEZE_MODE,
+            diag::ST2_FREEZE_MODE
+        );
         send(&mut s, 7, gc(&[gc::UNFREEZE, 0]));
         assert_eq!(
             data_exchange(&mut s, 8, &[3; 4]),
@@ -1039,7 +1102,10 @@ mod tests {
     fn set_slave_add_before_parameterisation_only() {
         let mut s = slave();
         let add = [42, 0x80, 0xE0, 0x00];
-        assert_eq!(send(&mut s, 0, service(Sap::SET_SLAVE_ADD, &add)), Some(Owned::ShortAck));
+        assert_eq!(
+            send(&mut s, 0, service(Sap::SET_SLAVE_ADD, &add)),
+            Some(Owned::ShortAck)
+        );
         assert_eq!(s.address(), 42);
         assert_eq!(s.app().stored_address, Some((42, false)));
         // The old address is gone.
@@ -1090,9 +1156,26 @@ mod tests {
             ..service(Sap::SLAVE_DIAG, &[])
         };
         assert_eq!(send(&mut s, 0, sdn), None);
-        assert_eq!(send(&mut s, 0, DataRepr { da: 9, ..service(Sap::SLAVE_DIAG, &[]) }), None);
         assert_eq!(
-            send(&mut s, 0, DataRepr { da: BROADCAST_ADDRESS, ..service(Sap::SLAVE_DIAG, &[]) }),
+            send(
+                &mut s,
+                0,
+                DataRepr {
+                    da: 9,
+                    ..service(Sap::SLAVE_DIAG, &[])
+                }
+            ),
+            None
+        );
+        assert_eq!(
+            send(
+                &mut s,
+                0,
+                DataRepr {
+                    da: BROADCAST_ADDRESS,
+                    ..service(Sap::SLAVE_DIAG, &[])
+                }
+            ),
             None
         );
         // DP-V1 MSAC1 (51) is not active in DP-V0.
@@ -1113,12 +1196,21 @@ mod tests {
         into_data_exchange(&mut s);
         s.app_mut().diag_changed = true;
         let _ = s.app_mut().ext_diag.extend_from_slice(&[0x03, 0xAA, 0xBB]);
-        assert!(matches!(data_exchange(&mut s, 1, &[0; 12]), Some(Owned::Data(S::DataHigh, _))));
-        assert!(matches!(data_exchange(&mut s, 2, &[0; 12]), Some(Owned::Data(S::DataHigh, _))));
+        assert!(matches!(
+            data_exchange(&mut s, 1, &[0; 12]),
+            Some(Owned::Data(S::DataHigh, _))
+        ));
+        assert!(matches!(
+            data_exchange(&mut s, 2, &[0; 12]),
+            Some(Owned::Data(S::DataHigh, _))
+        ));
         let d = diag(&mut s, MASTER);
         assert_eq!(d[0], diag::ST1_EXT_DIAG);
         assert_eq!(&d[6..], [0x03, 0xAA, 0xBB]);
-        assert!(matches!(data_exchange(&mut s, 3, &[0; 12]), Some(Owned::Data(S::DataLow, _))));
+        assert!(matches!(
+            data_exchange(&mut s, 3, &[0; 12]),
+            Some(Owned::Data(S::DataLow, _))
+        ));
     }
 
     #[test]
@@ -1130,7 +1222,10 @@ mod tests {
             Some(Owned::Data(S::SapNotActivated, vec![]))
         );
         assert_eq!(s.state(), State::WaitPrm);
-        assert_eq!(s.app().fail_safes.as_slice(), [FailSafeReason::LeftDataExchange]);
+        assert_eq!(
+            s.app().fail_safes.as_slice(),
+            [FailSafeReason::LeftDataExchange]
+        );
     }
 
     #[test]
@@ -1150,7 +1245,13 @@ mod tests {
         );
         let mut out = [0u8; 64];
         let n = s
-            .handle(Instant::ZERO, &[0x68, 0x05, 0x05, 0x68, 0x88, 0x81, 0x6D, 0x3C, 0x3E, 0xF0, 0x16], &mut out)
+            .handle(
+                Instant::ZERO,
+                &[
+                    0x68, 0x05, 0x05, 0x68, 0x88, 0x81, 0x6D, 0x3C, 0x3E, 0xF0, 0x16,
+                ],
+                &mut out,
+            )
             .unwrap();
         let (resp, _) = Repr::parse_bytes(&out[..n]).unwrap();
         let (want, _) = Repr::parse_bytes(&[
@@ -1160,7 +1261,13 @@ mod tests {
         .unwrap();
         assert_eq!(resp, want);
         let n = s
-            .handle(Instant::ZERO, &[0x68, 0x05, 0x05, 0x68, 0x88, 0x81, 0x5D, 0x3B, 0x3E, 0xDF, 0x16], &mut out)
+            .handle(
+                Instant::ZERO,
+                &[
+                    0x68, 0x05, 0x05, 0x68, 0x88, 0x81, 0x5D, 0x3B, 0x3E, 0xDF, 0x16,
+                ],
+                &mut out,
+            )
             .unwrap();
         assert_eq!(
             &out[..n],

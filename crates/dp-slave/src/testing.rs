@@ -33,7 +33,9 @@ pub struct EchoApp {
 
 impl Application for EchoApp {
     fn accept_user_prm(&mut self, user_prm: &[u8]) -> bool {
-        if self.reject_user_prm_byte.is_some() && user_prm.first() == self.reject_user_prm_byte.as_ref() {
+        if self.reject_user_prm_byte.is_some()
+            && user_prm.first() == self.reject_user_prm_byte.as_ref()
+        {
             return false;
         }
         self.user_prm.clear();

@@ -43,6 +43,11 @@ pub const BROADCAST_ADDRESS: u8 = 127;
 /// The highest address a station may hold (126 is the default of a slave without one).
 pub const MAX_STATION_ADDRESS: u8 = 126;
 
+/// The adapter's own Ident_Number, in its GSD file and checked in every Set_Prm. (Ident numbers
+/// are assigned by PROFIBUS International; this open implementation holds none, so it uses one
+/// from the range no listed device of the reference GSD files uses.)
+pub const ADAPTER_IDENT_NUMBER: u16 = 0xD7A1;
+
 /// DP service access points of a slave and of a master (PROTOCOL.md, "DP service access points").
 pub mod sap {
     /// Set_Slave_Add.

@@ -183,6 +183,16 @@ impl<A: Application> Slave<A> {
         self.clear_by_command || self.clear_by_empty_outputs
     }
 
+    /// Prm_Fault: the last Set_Prm was refused.
+    pub fn prm_fault(&self) -> bool {
+        self.prm_fault
+    }
+
+    /// Cfg_Fault: the last Chk_Cfg was refused.
+    pub fn cfg_fault(&self) -> bool {
+        self.cfg_fault
+    }
+
     /// The watchdog time from the last Set_Prm, if on.
     pub fn watchdog_micros(&self) -> Option<u64> {
         self.watchdog_micros

@@ -1,0 +1,323 @@
+//! The adapter's MCU logic: from link messages to the DP slave and back, the station address
+//! from the rotary switch and the non-volatile storage, and the LEDs of both manuals.
+//!
+//! The firmware is a thin shell around [`Adapter`]: it decodes a [`ToAdapter`] message, calls
+//! [`Adapter::on_message`], and sends the response with the [`Status`] and its own cycle count.
+//! Nothing here knows of Cortex-M, QEMU or clocks: time arrives in the messages.
+//!
+//! Station address (seed 000, "从站地址设置"): the switch has two decimal digits. 1-98 set the
+//! address, and Set_Slave_Add is refused because the switch rules. 0 takes the address from
+//! the non-volatile storage (1-126; 126 when it is empty), and Set_Slave_Add may change it.
+//! 99 restores the factory defaults at power-up and then behaves as 0. A reading above 99
+//! cannot come from two decimal digits; it is treated as 0, the setting that keeps the stored
+//! configuration, and the boot log says so.
+#![cfg_attr(not(test), no_std)]
+#![deny(unsafe_code)]
+
+use dp_link::{Led, Leds, NvRecord, SlaveState, Status, ToAdapter};
+use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
+
+/// What the storage holds after a factory reset: the commissioning address, changeable.
+pub const FACTORY_DEFAULTS: NvRecord = NvRecord {
+    address: dp_consts::MAX_STATION_ADDRESS,
+    no_add_chg: false,
+};
+
+/// The switch position that restores the factory defaults.
+pub const SWITCH_FACTORY_RESET: u8 = 99;
+/// The highest address the switch can set.
+pub const SWITCH_MAX_ADDRESS: u8 = 98;
+
+/// Where the station address came from at power-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AddressSource {
+    Switch,
+    Storage,
+    /// The storage was empty or invalid: the default address.
+    Default,
+    FactoryReset,
+}
+
+/// The address, whether Set_Slave_Add may change it, and a record to write now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Addressing {
+    pub address: u8,
+    pub no_add_chg: bool,
+    pub source: AddressSource,
+    pub nv_write: Option<NvRecord>,
+}
+
+/// Resolves the station address at power-up from the switch and the storage.
+pub fn addressing(switch: u8, nv: Option<NvRecord>) -> Addressing {
+    match switch {
+        1..=SWITCH_MAX_ADDRESS => Addressing {
+            address: switch,
+            no_add_chg: true,
+            source: AddressSource::Switch,
+            nv_write: None,
+        },
+        SWITCH_FACTORY_RESET => Addressing {
+            address: FACTORY_DEFAULTS.address,
+            no_add_chg: FACTORY_DEFAULTS.no_add_chg,
+            source: AddressSource::FactoryReset,
+            nv_write: Some(FACTORY_DEFAULTS),
+        },
+        _ => match nv {
+            Some(r) if (1..=dp_consts::MAX_STATION_ADDRESS).contains(&r.address) => Addressing {
+                address: r.address,
+                no_add_chg: r.no_add_chg,
+                source: AddressSource::Storage,
+                nv_write: None,
+            },
+            _ => Addressing {
+                address: FACTORY_DEFAULTS.address,
+                no_add_chg: false,
+                source: AddressSource::Default,
+                nv_write: None,
+            },
+        },
+    }
+}
+
+/// The application as the slave sees it, with the adapter's bookkeeping around it.
+struct Recording<A> {
+    inner: A,
+    nv_write: Option<NvRecord>,
+    outputs_applied: u32,
+    fail_safes: u16,
+}
+
+impl<A: Application> Application for Recording<A> {
+    fn accept_user_prm(&mut self, user_prm: &[u8]) -> bool {
+        self.inner.accept_user_prm(user_prm)
+    }
+    fn accept_cfg(&mut self, cfg: &[u8]) -> Option<IoSizes> {
+        self.inner.accept_cfg(cfg)
+    }
+    fn default_cfg(&self) -> &[u8] {
+        self.inner.default_cfg()
+    }
+    fn outputs(&mut self, now: Instant, outputs: &[u8]) {
+        self.outputs_applied = self.outputs_applied.wrapping_add(1);
+        self.inner.outputs(now, outputs)
+    }
+    fn inputs(&mut self, now: Instant, inputs: &mut [u8]) {
+        self.inner.inputs(now, inputs)
+    }
+    fn fail_safe(&mut self, now: Instant, reason: FailSafeReason) {
+        self.fail_safes = self.fail_safes.wrapping_add(1);
+        self.inner.fail_safe(now, reason)
+    }
+    fn ext_diag(&mut self, buffer: &mut [u8]) -> usize {
+        self.inner.ext_diag(buffer)
+    }
+    fn diag_changed(&mut self) -> bool {
+        self.inner.diag_changed()
+    }
+    fn static_diag(&self) -> bool {
+        self.inner.static_diag()
+    }
+    fn store_address(&mut self, address: u8, no_add_chg: bool) {
+        self.nv_write = Some(NvRecord {
+            address,
+            no_add_chg,
+        });
+        self.inner.store_address(address, no_add_chg)
+    }
+}
+
+/// The adapter after power-up.
+pub struct Adapter<A> {
+    slave: Slave<Recording<A>>,
+    addressing: Addressing,
+    /// Data exchange happened since power-up: leaving it is a fault (Net blinks).
+    exchanged: bool,
+    response: [u8; dp_consts::MAX_TELEGRAM_LEN],
+}
+
+impl<A: Application> Adapter<A> {
+    /// Power-up with the switch reading and the storage contents.
+    pub fn boot(switch: u8, nv: Option<NvRecord>, app: A) -> Adapter<A> {
+        let addressing = addressing(switch, nv);
+        let slave = Slave::new(
+            Config {
+                address: addressing.address,
+                ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+                no_add_chg: addressing.no_add_chg,
+                dpv1_status_bytes: false,
+            },
+            Recording {
+                inner: app,
+                nv_write: addressing.nv_write,
+                outputs_applied: 0,
+                fail_safes: 0,
+            },
+        );
+        Adapter {
+            slave,
+            addressing,
+            exchanged: false,
+            response: [0; dp_consts::MAX_TELEGRAM_LEN],
+        }
+    }
+
+    pub fn addressing(&self) -> Addressing {
+        self.addressing
+    }
+
+    pub fn slave(&self) -> &Slave<impl Application> {
+        &self.slave
+    }
+
+    pub fn app(&self) -> &A {
+        &self.slave.app().inner
+    }
+
+    /// Handles a Telegram or Tick (a Boot is the caller's: it builds a new adapter); returns
+    /// the response telegram (empty for none) and the status after it.
+    pub fn on_message(&mut self, message: &ToAdapter) -> (&[u8], Status) {
+        let len = match *message {
+            ToAdapter::Telegram { now_us, bytes, .. } => {
+                let now = Instant::from_micros(now_us);
+                self.slave.handle(now, bytes, &mut self.response).unwrap_or(0)
+            }
+            ToAdapter::Tick { now_us, .. } => {
+                self.slave.poll(Instant::from_micros(now_us));
+                0
+            }
+            ToAdapter::Boot { .. } => 0,
+        };
+        if self.slave.state() == State::DataExch {
+            self.exchanged = true;
+        }
+        let status = self.status();
+        (&self.response[..len], status)
+    }
+
+    /// The status now; takes a pending storage write.
+    pub fn status(&mut self) -> Status {
+        let nv_write = self.slave.app_mut().nv_write.take();
+        let app = self.slave.app();
+        Status {
+            address: self.slave.address(),
+            state: match self.slave.state() {
+                State::PowerOn => SlaveState::PowerOn,
+                State::WaitPrm => SlaveState::WaitPrm,
+                State::WaitCfg => SlaveState::WaitCfg,
+                State::DataExch => SlaveState::DataExch,
+            },
+            min_tsdr_bits: self.slave.min_tsdr_bits(),
+            leds: self.leds(),
+            nv_write,
+            poll_at_us: self.slave.poll_at().map(Instant::micros),
+            outputs_applied: app.outputs_applied,
+            fail_safes: app.fail_safes,
+        }
+    }
+
+    /// The LEDs from the slave's state. Seed 000: Net off before data exchange, on in it,
+    /// blinking when DP communication went wrong; Run flashes 20 ms a second in normal data
+    /// exchange. Seed 004: online on in data exchange, offline on otherwise, error blinking
+    /// 1 Hz for a configuration fault and 2 Hz for a user-parameter fault. TX and RX belong to
+    /// the drive link.
+    fn leds(&self) -> Leds {
+        let exchanging = self.slave.state() == State::DataExch;
+        let faulted = self.slave.prm_fault() || self.slave.cfg_fault();
+        Leds {
+            net: match (exchanging, faulted || self.exchanged) {
+                (true, _) => Led::On,
+                (false, true) => Led::Blink2Hz,
+                (false, false) => Led::Off,
+            },
+            run: if exchanging { Led::Flash1Hz } else { Led::Off },
+            tx: Led::Off,
+            rx: Led::Off,
+            error: if self.slave.cfg_fault() {
+                Led::Blink1Hz
+            } else if self.slave.prm_fault() {
+                Led::Blink2Hz
+            } else {
+                Led::Off
+            },
+            online: if exchanging { Led::On } else { Led::Off },
+            offline: if exchanging { Led::Off } else { Led::On },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dp_slave::testing::EchoApp;
+
+    #[test]
+    fn switch_positions_of_seed_000() {
+        let stored = Some(NvRecord {
+            address: 42,
+            no_add_chg: false,
+        });
+        let a = addressing(17, stored);
+        assert_eq!((a.address, a.no_add_chg, a.source), (17, true, AddressSource::Switch));
+        let a = addressing(98, stored);
+        assert_eq!(a.address, 98);
+        let a = addressing(0, stored);
+        assert_eq!((a.address, a.source), (42, AddressSource::Storage));
+        let a = addressing(0, None);
+        assert_eq!((a.address, a.source), (126, AddressSource::Default));
+        let a = addressing(0, Some(NvRecord { address: 0, no_add_chg: false }));
+        assert_eq!(a.source, AddressSource::Default);
+        let a = addressing(99, stored);
+        assert_eq!(
+            (a.address, a.source, a.nv_write),
+            (126, AddressSource::FactoryReset, Some(FACTORY_DEFAULTS))
+        );
+    }
+
+    fn telegram(bytes: &[u8]) -> ToAdapter<'_> {
+        ToAdapter::Telegram {
+            seq: 1,
+            now_us: 1000,
+            baud: 9,
+            bytes,
+        }
+    }
+
+    #[test]
+    fn set_slave_add_is_written_to_storage_once() {
+        let mut adapter = Adapter::boot(0, None, EchoApp::default());
+        assert_eq!(adapter.status().address, 126);
+        // Set_Slave_Add to 42 with the adapter's ident, from master 2.
+        let mut t = vec![0x68, 0x09, 0x09, 0x68, 126 | 0x80, 0x82, 0x6C, 55, 62, 42];
+        t.extend_from_slice(&dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes());
+        t.push(0);
+        let fcs = fdl::fcs(&t[4..]);
+        t.extend_from_slice(&[fcs, 0x16]);
+        let (response, status) = adapter.on_message(&telegram(&t));
+        assert_eq!(response, [0xE5]);
+        assert_eq!(status.address, 42);
+        assert_eq!(status.nv_write, Some(NvRecord { address: 42, no_add_chg: false }));
+        assert_eq!(adapter.status().nv_write, None);
+    }
+
+    #[test]
+    fn the_switch_forbids_set_slave_add() {
+        let mut adapter = Adapter::boot(5, None, EchoApp::default());
+        let mut t = vec![0x68, 0x09, 0x09, 0x68, 5 | 0x80, 0x82, 0x6C, 55, 62, 42];
+        t.extend_from_slice(&dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes());
+        t.push(0);
+        let fcs = fdl::fcs(&t[4..]);
+        t.extend_from_slice(&[fcs, 0x16]);
+        let (_, status) = adapter.on_message(&telegram(&t));
+        assert_eq!(status.address, 5);
+        assert_eq!(status.nv_write, None);
+    }
+
+    #[test]
+    fn leds_before_data_exchange() {
+        let mut adapter = Adapter::boot(8, None, EchoApp::default());
+        let leds = adapter.status().leds;
+        assert_eq!((leds.net, leds.online, leds.offline, leds.error), (Led::Off, Led::Off, Led::On, Led::Off));
+    }
+}

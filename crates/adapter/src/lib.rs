@@ -81,6 +81,16 @@ pub fn addressing(switch: u8, nv: Option<NvRecord>) -> Addressing {
     }
 }
 
+/// The slave's state as the link names it.
+pub fn link_state(state: State) -> SlaveState {
+    match state {
+        State::PowerOn => SlaveState::PowerOn,
+        State::WaitPrm => SlaveState::WaitPrm,
+        State::WaitCfg => SlaveState::WaitCfg,
+        State::DataExch => SlaveState::DataExch,
+    }
+}
+
 /// The application as the slave sees it, with the adapter's bookkeeping around it.
 struct Recording<A> {
     inner: A,
@@ -202,12 +212,7 @@ impl<A: Application> Adapter<A> {
         let app = self.slave.app();
         Status {
             address: self.slave.address(),
-            state: match self.slave.state() {
-                State::PowerOn => SlaveState::PowerOn,
-                State::WaitPrm => SlaveState::WaitPrm,
-                State::WaitCfg => SlaveState::WaitCfg,
-                State::DataExch => SlaveState::DataExch,
-            },
+            state: link_state(self.slave.state()),
             min_tsdr_bits: self.slave.min_tsdr_bits(),
             leds: self.leds(),
             nv_write,

@@ -1,0 +1,111 @@
+//! The QEMU board, `lm3s6965evb`: UART0 carries the transceiver link (QEMU's first `-serial`),
+//! UART1 is kept for the drive link, defmt goes out over semihosting, and panics exit QEMU
+//! with a failure code.
+//!
+//! The `lm3s6965` crate is the device crate RTIC's own QEMU examples use; it defines the
+//! interrupts only, not the registers, so the few UART registers are written here (no
+//! register-level PAC for this part is published).
+
+pub use lm3s6965 as pac;
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+
+pub const NAME: &str = "lm3s6965evb (QEMU)";
+
+/// QEMU's `-icount shift=7`: every instruction takes 2^7 ns of virtual time.
+const ICOUNT_NS_PER_INSTRUCTION: u32 = 128;
+/// SysTick on the processor clock: QEMU's lm3s6965evb runs it at 12.5 MHz.
+const SYSTICK_NS: u32 = 80;
+
+/// A PL011-style UART of the Stellaris part.
+pub struct Uart {
+    base: usize,
+}
+
+const UART0_BASE: usize = 0x4000_C000;
+const DR: usize = 0x000;
+const FR: usize = 0x018;
+const LCRH: usize = 0x02C;
+const CTL: usize = 0x030;
+const IM: usize = 0x038;
+const ICR: usize = 0x044;
+const FR_RXFE: u32 = 1 << 4;
+const FR_TXFF: u32 = 1 << 5;
+const LCRH_WLEN8_FEN: u32 = 0x70;
+const CTL_UARTEN_TXE_RXE: u32 = 0x301;
+const INT_RX_RT: u32 = (1 << 4) | (1 << 6);
+
+impl Uart {
+    fn read(&self, offset: usize) -> u32 {
+        // SAFETY: `base + offset` is a UART register of this part, always mapped and readable.
+        unsafe { core::ptr::read_volatile((self.base + offset) as *const u32) }
+    }
+
+    fn write(&self, offset: usize, value: u32) {
+        // SAFETY: as in `read`; only this driver touches the UART it owns.
+        unsafe { core::ptr::write_volatile((self.base + offset) as *mut u32, value) }
+    }
+
+    /// The next received byte, if the FIFO holds one.
+    pub fn read_byte(&mut self) -> Option<u8> {
+        (self.read(FR) & FR_RXFE == 0).then(|| self.read(DR) as u8)
+    }
+
+    /// Sends one byte, waiting while the FIFO is full.
+    pub fn write_byte(&mut self, byte: u8) {
+        while self.read(FR) & FR_TXFF != 0 {}
+        self.write(DR, u32::from(byte));
+    }
+
+    /// Acknowledges the receive and receive-timeout interrupts.
+    pub fn clear_rx_interrupt(&mut self) {
+        self.write(ICR, INT_RX_RT);
+    }
+}
+
+/// What `init` hands to the app.
+pub struct Board {
+    /// The receive half of the link UART (the hardware task's).
+    pub link: Uart,
+}
+
+/// The transmit half of the link UART (the link task's). Receiving reads DR and FR and writes
+/// ICR, transmitting writes DR and reads FR: the two halves never disturb each other.
+pub fn link_tx() -> Uart {
+    Uart { base: UART0_BASE }
+}
+
+/// Sets up the link UART with receive interrupts and SysTick as a free-running cycle counter.
+pub fn init(mut syst: SYST) -> Board {
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(0x00FF_FFFF);
+    syst.clear_current();
+    syst.enable_counter();
+    let link = Uart { base: UART0_BASE };
+    link.write(LCRH, LCRH_WLEN8_FEN);
+    link.write(IM, INT_RX_RT);
+    link.write(CTL, CTL_UARTEN_TXE_RXE);
+    // The stored handle is not needed again: SYST::get_current reads the register directly.
+    core::mem::forget(syst);
+    Board { link }
+}
+
+/// A timestamp for [`cycles_since`].
+pub fn timestamp() -> u32 {
+    SYST::get_current()
+}
+
+/// CPU cycles since `start`, counting one per instruction as QEMU's icount does: SysTick
+/// ticks of 80 ns, at 128 ns per instruction. Repeatable under `-icount shift=7`.
+pub fn cycles_since(start: u32) -> u32 {
+    let ticks = start.wrapping_sub(SYST::get_current()) & 0x00FF_FFFF;
+    ticks * SYSTICK_NS / ICOUNT_NS_PER_INSTRUCTION
+}
+
+/// Ends the QEMU run with a failure code (panic, HardFault).
+pub fn exit_failure() -> ! {
+    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}

@@ -1,0 +1,199 @@
+//! The adapter's firmware: a thin RTIC shell around `crates/adapter`.
+//!
+//! ```text
+//! UART (link) ─IRQ─► bytes ─► bbqueue ─► `link` task: COBS frames ─► postcard ToAdapter
+//!    ▲                                          │ Adapter::on_message (fdl, dp-slave, app)
+//!    └──────────── FromAdapter::Reply ◄─────────┘ + turnaround cycles
+//! ```
+//! The hardware task only moves bytes and wakes the software task; every protocol decision is
+//! in the logic crates. Each message gets exactly one reply, so the queue holds one frame.
+#![no_std]
+#![no_main]
+
+mod board;
+
+use defmt::error;
+
+#[cfg(feature = "lm3s6965")]
+use defmt_semihosting as _;
+#[cfg(feature = "stm32f103")]
+use defmt_rtt as _;
+
+/// Bytes the link queue holds: two maximal frames.
+const LINK_QUEUE_LEN: usize = 2 * dp_link::MAX_FRAME_LEN;
+
+/// The drive application until the PROFIdrive crate lands: dp-slave's loopback application,
+/// accepting the six PPO configurations.
+type DriveApp = dp_slave::testing::EchoApp;
+
+const PPO_CONFIGURATIONS: &[&[u8]] = &[
+    &[0xF3, 0xF1],
+    &[0xF3, 0xF5],
+    &[0xF1],
+    &[0xF5],
+    &[0xF3, 0xF9],
+    &[0xF9],
+];
+
+fn drive_app() -> DriveApp {
+    DriveApp {
+        accepted_cfgs: PPO_CONFIGURATIONS,
+        default_cfg: PPO_CONFIGURATIONS[0],
+        ..DriveApp::default()
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    error!("panic: {}", defmt::Display2Format(info));
+    board::exit_failure()
+}
+
+#[cortex_m_rt::exception]
+unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    error!("HardFault");
+    board::exit_failure()
+}
+
+macro_rules! adapter_app {
+    ($link_irq:ident, $dispatcher:ident) => {
+        #[rtic::app(device = crate::board::pac, dispatchers = [$dispatcher])]
+        mod app {
+            use crate::board;
+            use adapter::Adapter;
+            use bbqueue::{BBBuffer, Consumer, Producer};
+            use core::sync::atomic::{AtomicU32, Ordering};
+            use defmt::{info, warn};
+            use dp_link::{Deframer, Fed, FromAdapter, ToAdapter};
+            use rtic_sync::channel::{Receiver, Sender};
+            use rtic_sync::make_channel;
+
+            static LINK_QUEUE: BBBuffer<{ crate::LINK_QUEUE_LEN }> = BBBuffer::new();
+            /// Timestamp of the last frame end seen by the hardware task.
+            static FRAME_END: AtomicU32 = AtomicU32::new(0);
+
+            #[shared]
+            struct Shared {}
+
+            #[local]
+            struct Local {
+                link_rx: board::Uart,
+                link_tx: Option<board::Uart>,
+                producer: Producer<'static, { crate::LINK_QUEUE_LEN }>,
+                consumer: Consumer<'static, { crate::LINK_QUEUE_LEN }>,
+                wake: Sender<'static, (), 1>,
+            }
+
+            #[init]
+            fn init(cx: init::Context) -> (Shared, Local) {
+                let board = board::init(cx.core.SYST);
+                let (producer, consumer) = LINK_QUEUE.try_split().unwrap();
+                let (wake, woken) = make_channel!((), 1);
+                info!("boot: {}", board::NAME);
+                link::spawn(woken).ok();
+                (
+                    Shared {},
+                    Local {
+                        link_rx: board.link,
+                        link_tx: Some(board::link_tx()),
+                        producer,
+                        consumer,
+                        wake,
+                    },
+                )
+            }
+
+            #[idle]
+            fn idle(_: idle::Context) -> ! {
+                loop {
+                    cortex_m::asm::wfi();
+                }
+            }
+
+            /// Moves received bytes into the queue and wakes the link task.
+            #[task(binds = $link_irq, priority = 2, local = [link_rx, producer, wake])]
+            fn link_irq(cx: link_irq::Context) {
+                let uart = cx.local.link_rx;
+                uart.clear_rx_interrupt();
+                while let Some(byte) = uart.read_byte() {
+                    if byte == 0 {
+                        FRAME_END.store(board::timestamp(), Ordering::Relaxed);
+                    }
+                    match cx.local.producer.grant_exact(1) {
+                        Ok(mut grant) => {
+                            grant[0] = byte;
+                            grant.commit(1);
+                        }
+                        // Cannot happen in the lockstep protocol; dropped bytes fail the frame.
+                        Err(_) => {}
+                    }
+                }
+                // A full channel means a wake-up is already pending.
+                let _ = cx.local.wake.try_send(());
+            }
+
+            /// Decodes frames, runs the adapter, sends the replies.
+            #[task(priority = 1, local = [consumer, link_tx, adapter: Option<Adapter<crate::DriveApp>> = None, deframer: Deframer = Deframer::new()])]
+            async fn link(cx: link::Context, mut woken: Receiver<'static, (), 1>) {
+                let tx = cx.local.link_tx.as_mut().unwrap();
+                while woken.recv().await.is_ok() {
+                    while let Ok(grant) = cx.local.consumer.read() {
+                        let len = grant.len();
+                        let mut rest: &[u8] = &grant;
+                        loop {
+                            match cx.local.deframer.feed::<ToAdapter>(rest) {
+                                Fed::Pending => break,
+                                Fed::Dropped(r) => {
+                                    warn!("link: dropped a frame");
+                                    rest = r;
+                                }
+                                Fed::Message(message, r) => {
+                                    handle(cx.local.adapter, tx, &message);
+                                    rest = r;
+                                }
+                            }
+                        }
+                        grant.release(len);
+                    }
+                }
+            }
+
+            fn handle(slot: &mut Option<Adapter<crate::DriveApp>>, tx: &mut board::Uart, message: &ToAdapter) {
+                let start = FRAME_END.load(Ordering::Relaxed);
+                if let ToAdapter::Boot { switch, nv, .. } = *message {
+                    let adapter = Adapter::boot(switch, nv, crate::drive_app());
+                    let a = adapter.addressing();
+                    info!("adapter: switch {=u8}, address {=u8} from {}", switch, a.address, a.source);
+                    *slot = Some(adapter);
+                }
+                let Some(adapter) = slot.as_mut() else {
+                    warn!("link: message before Boot");
+                    return;
+                };
+                let before = adapter.slave().state();
+                let (response, status) = adapter.on_message(message);
+                if adapter::link_state(before) != status.state {
+                    info!("slave: {} -> {}", before, status.state);
+                }
+                let cycles = board::cycles_since(start);
+                let reply = FromAdapter::Reply {
+                    seq: message.seq(),
+                    response,
+                    cycles,
+                    status,
+                };
+                let mut frame = [0u8; dp_link::MAX_FRAME_LEN];
+                match dp_link::encode(&reply, &mut frame) {
+                    Ok(bytes) => bytes.iter().for_each(|b| tx.write_byte(*b)),
+                    Err(_) => warn!("link: reply does not fit a frame"),
+                }
+            }
+        }
+    };
+}
+
+#[cfg(feature = "lm3s6965")]
+adapter_app!(UART0, GPIOA);
+#[cfg(feature = "stm32f103")]
+adapter_app!(USART1, EXTI0);
+

@@ -1,0 +1,511 @@
+//! The co-simulation: one clock for the whole bus.
+//!
+//! ```text
+//! profirust ─► MasterPhy (UART TX, bit by bit) ─► line ◄─ faults
+//!      ▲                                            │
+//!      └── MasterPhy (UART RX) ◄────────────────────┤
+//!                                                   ▼
+//!                     transceiver model (autobaud, delimiter, TX after min TSDR)
+//!                        │ good telegram to our address            ▲ response at
+//!                        ▼                                         │ end + latency + cycles
+//!                     Firmware (QEMU or in-process) ── Reply ──────┘
+//! ```
+//! Simulated time stops while the firmware works: the firmware's turnaround enters only as the
+//! cycle count it reports, converted at the board's declared clock. Time is ticks of the
+//! transceiver's sample clock; the firmware sees it as microseconds in each message.
+
+use crate::firmware::{Firmware, Reply};
+use crate::master::MasterPhy;
+use dp_consts::Baud;
+use dp_link::{Leds, NvRecord, SlaveState, Status, ToAdapter};
+use dp_phy::bus::{Bus, FaultInjector};
+use dp_phy::delimiter::Status as TelegramStatus;
+use dp_phy::{BaudState, BitTiming, Tick, Transceiver};
+use profirust::dp::{DpMaster, Peripheral, PeripheralHandle, PeripheralOptions};
+use profirust::fdl::{FdlActiveStation, ParametersBuilder};
+use std::io;
+
+/// The transceiver's sample clock.
+pub const CLOCK_HZ: u32 = 48_000_000;
+/// The production board's clock, at which the firmware's cycles are counted.
+pub const DECLARED_CLOCK_HZ: u32 = 72_000_000;
+/// One way across the transceiver-to-MCU interface (a dual-port buffer and an interrupt).
+pub const LINK_LATENCY_NS: u64 = 1_000;
+
+/// What the master does and how it sees the slave.
+#[derive(Clone, Debug)]
+pub struct MasterSetup {
+    pub baud: Baud,
+    pub ppm: i32,
+    pub address: u8,
+    pub slave_address: u8,
+    pub ident_number: u16,
+    pub config: Vec<u8>,
+    pub user_prm: Vec<u8>,
+    pub watchdog_ms: u64,
+}
+
+impl MasterSetup {
+    pub fn new(baud: Baud, slave_address: u8) -> MasterSetup {
+        MasterSetup {
+            baud,
+            ppm: 0,
+            address: 2,
+            slave_address,
+            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+            config: vec![0xF3, 0xF1],
+            user_prm: vec![0x00],
+            watchdog_ms: 200,
+        }
+    }
+}
+
+/// The profirust master: its FDL station and DP application, over its PHY.
+pub struct Master {
+    pub phy: MasterPhy,
+    pub fdl: FdlActiveStation,
+    pub dp: DpMaster<'static>,
+    pub handle: PeripheralHandle,
+    pub setup: MasterSetup,
+    /// Data exchange cycles completed.
+    pub cycles: u64,
+    /// The outputs sent last, and whether the inputs answering them were checked.
+    pub outputs: Vec<u8>,
+    pub inputs_checked: u64,
+    pub inputs_wrong: u64,
+}
+
+fn profirust_baud(baud: Baud) -> profirust::Baudrate {
+    use profirust::Baudrate as B;
+    match baud {
+        Baud::B9600 => B::B9600,
+        Baud::B19200 => B::B19200,
+        Baud::B45450 => B::B45450,
+        Baud::B93750 => B::B93750,
+        Baud::B187500 => B::B187500,
+        Baud::B500000 => B::B500000,
+        Baud::B1500000 => B::B1500000,
+        Baud::B3000000 => B::B3000000,
+        Baud::B6000000 => B::B6000000,
+        Baud::B12000000 => B::B12000000,
+    }
+}
+
+impl Master {
+    pub fn new(setup: MasterSetup, now: Tick) -> Master {
+        let timing = BitTiming::new(CLOCK_HZ, setup.baud, setup.ppm);
+        let mut phy = MasterPhy::new(timing);
+        phy.now = now;
+        phy.last_activity = now;
+        let mut dp = DpMaster::new(vec![]);
+        let io = dp_slave::cfg::io_sizes(&setup.config).unwrap_or_default();
+        let options = PeripheralOptions {
+            ident_number: setup.ident_number,
+            user_parameters: Some(Box::leak(setup.user_prm.clone().into_boxed_slice())),
+            config: Some(Box::leak(setup.config.clone().into_boxed_slice())),
+            max_tsdr: setup.baud.default_max_tsdr_bits(),
+            fail_safe: true,
+            ..Default::default()
+        };
+        let handle = dp.add(
+            Peripheral::new(
+                setup.slave_address,
+                options,
+                vec![0u8; io.inputs],
+                vec![0u8; io.outputs],
+            )
+            .with_diag_buffer(vec![0u8; 64]),
+        );
+        let mut fdl = FdlActiveStation::new(
+            ParametersBuilder::new(setup.address, profirust_baud(setup.baud))
+                .highest_station_address(setup.address.max(2) + 1)
+                .watchdog_timeout(profirust::time::Duration::from_millis(setup.watchdog_ms))
+                .build_verified(&dp),
+        );
+        fdl.set_online();
+        dp.enter_operate();
+        Master {
+            phy,
+            fdl,
+            dp,
+            handle,
+            outputs: vec![0u8; io.outputs],
+            setup,
+            cycles: 0,
+            inputs_checked: 0,
+            inputs_wrong: 0,
+        }
+    }
+
+    /// Whether profirust sees the slave in data exchange.
+    pub fn running(&mut self) -> bool {
+        self.dp.get_mut(self.handle).is_running()
+    }
+
+    fn poll(&mut self, now_us: u64) {
+        let now = profirust::time::Instant::from_micros(now_us as i64);
+        self.fdl.poll(now, &mut self.phy, &mut self.dp);
+        let events = self.dp.take_last_events();
+        if events.cycle_completed {
+            let handle = self.handle;
+            let peripheral = self.dp.get_mut(handle);
+            if peripheral.is_running() {
+                self.cycles += 1;
+                // The loopback application answers each output byte with its complement.
+                let want: Vec<u8> = self.outputs.iter().map(|b| !b).collect();
+                if peripheral.pi_i().len() == want.len() && self.cycles > 1 {
+                    self.inputs_checked += 1;
+                    if peripheral.pi_i() != want.as_slice() {
+                        self.inputs_wrong += 1;
+                    }
+                }
+                let c = self.cycles as u8;
+                for (i, b) in self.outputs.iter_mut().enumerate() {
+                    *b = c.wrapping_mul(37).wrapping_add(i as u8);
+                }
+                peripheral.pi_q_mut().copy_from_slice(&self.outputs);
+            }
+        }
+    }
+}
+
+/// A response the transceiver was given, until it starts on the line.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    request_end: Tick,
+}
+
+/// Figures of one run.
+#[derive(Clone, Debug, Default)]
+pub struct Figures {
+    pub locked: Option<Baud>,
+    /// Telegrams the master started before the adapter delivered its first good one.
+    pub lost_before_lock: Option<u64>,
+    pub forwarded: u64,
+    pub responses: u64,
+    pub worst_cycles: u32,
+    /// The longest TSDR on the wire, in bit times, and the rate it was seen at.
+    pub worst_tsdr_bits: u64,
+    pub worst_tsdr_baud: Option<Baud>,
+    /// Responses that started later than max TSDR.
+    pub late_responses: u64,
+    /// Telegrams the transceiver delivered with an error (never forwarded).
+    pub bad_telegrams: u64,
+    pub collisions: u64,
+}
+
+/// The whole bus and the board around the firmware.
+pub struct CoSim<F: Firmware> {
+    pub now: Tick,
+    pub bus: Bus,
+    pub master: Option<Master>,
+    pub adapter: Transceiver,
+    pub firmware: F,
+    /// The board's address switch.
+    pub switch: u8,
+    /// The emulated non-volatile storage.
+    pub nv: Option<NvRecord>,
+    pub status: Status,
+    pub figures: Figures,
+    /// What happened, in order, for the run's report: state and LED changes, locks, storage.
+    pub events: Vec<String>,
+    seq: u32,
+    pending: Option<Pending>,
+    next_master_poll: Tick,
+    last_baud_state: BaudState,
+}
+
+fn ticks_from_us(us: u64) -> Tick {
+    us * (CLOCK_HZ as u64 / 1_000_000)
+}
+
+fn us_from_ticks(ticks: Tick) -> u64 {
+    ticks / (CLOCK_HZ as u64 / 1_000_000)
+}
+
+impl<F: Firmware> CoSim<F> {
+    /// Powers the board up with the switch at `switch` and the storage holding `nv`.
+    pub fn new(firmware: F, switch: u8, nv: Option<NvRecord>) -> io::Result<CoSim<F>> {
+        let mut sim = CoSim {
+            now: 0,
+            bus: Bus::new(FaultInjector::none()),
+            master: None,
+            adapter: Transceiver::new(dp_phy::Config {
+                clock_hz: CLOCK_HZ,
+                ..dp_phy::Config::default()
+            }),
+            firmware,
+            switch,
+            nv,
+            status: Status {
+                address: 0,
+                state: SlaveState::PowerOn,
+                min_tsdr_bits: dp_consts::MIN_TSDR_BITS,
+                leds: Leds::default(),
+                nv_write: None,
+                poll_at_us: None,
+                outputs_applied: 0,
+                fail_safes: 0,
+            },
+            figures: Figures::default(),
+            events: Vec::new(),
+            seq: 0,
+            pending: None,
+            next_master_poll: 0,
+            last_baud_state: BaudState::Searching,
+        };
+        sim.boot()?;
+        Ok(sim)
+    }
+
+    fn boot(&mut self) -> io::Result<()> {
+        let message = ToAdapter::Boot {
+            seq: self.next_seq(),
+            now_us: us_from_ticks(self.now),
+            switch: self.switch,
+            nv: self.nv,
+        };
+        self.event(format!("power-up: switch {:02}, storage {:?}", self.switch, self.nv));
+        let reply = self.firmware.exchange(&message)?;
+        self.apply(&reply);
+        Ok(())
+    }
+
+    /// A power cycle of the board: the firmware restarts from the switch and the storage.
+    pub fn power_cycle(&mut self, restart: impl FnOnce(&mut F) -> io::Result<()>) -> io::Result<()> {
+        restart(&mut self.firmware)?;
+        self.adapter = Transceiver::new(self.adapter.config());
+        self.pending = None;
+        self.last_baud_state = BaudState::Searching;
+        self.boot()
+    }
+
+    fn next_seq(&mut self) -> u32 {
+        self.seq = self.seq.wrapping_add(1);
+        self.seq
+    }
+
+    fn event(&mut self, text: String) {
+        self.events.push(text);
+    }
+
+    /// Starts (or replaces) the DP master.
+    pub fn start_master(&mut self, setup: MasterSetup) {
+        self.event(format!("master: {} at {}", setup.address, setup.baud));
+        self.master = Some(Master::new(setup, self.now));
+        self.next_master_poll = self.now;
+    }
+
+    /// Silences the master (it disappears from the bus).
+    pub fn stop_master(&mut self) {
+        self.event("master: gone".into());
+        self.master = None;
+    }
+
+    pub fn now_us(&self) -> u64 {
+        us_from_ticks(self.now)
+    }
+
+    fn apply(&mut self, reply: &Reply) {
+        let old = self.status;
+        let new = reply.status;
+        if new.state != old.state {
+            self.event(format!("slave: {:?} -> {:?}", old.state, new.state));
+        }
+        if new.address != old.address {
+            self.event(format!("slave address: {}", new.address));
+        }
+        if new.leds != old.leds {
+            let l = new.leds;
+            self.event(format!(
+                "leds: net {:?}, run {:?}, error {:?}, online {:?}, offline {:?}",
+                l.net, l.run, l.error, l.online, l.offline
+            ));
+        }
+        if let Some(record) = new.nv_write {
+            self.nv = Some(record);
+            self.event(format!(
+                "storage: address {}, no_add_chg {}",
+                record.address, record.no_add_chg
+            ));
+        }
+        self.status = new;
+        self.figures.worst_cycles = self.figures.worst_cycles.max(reply.cycles);
+        self.adapter.set_min_tsdr(new.min_tsdr_bits);
+    }
+
+    /// Runs for `duration_us` of bus time.
+    pub fn run_for_us(&mut self, duration_us: u64) -> io::Result<()> {
+        let end = self.now + ticks_from_us(duration_us);
+        self.run_until(end, |_| false).map(|_| ())
+    }
+
+    /// Runs until `done` or tick `end`; returns whether `done` held.
+    pub fn run_until(&mut self, end: Tick, mut done: impl FnMut(&mut Self) -> bool) -> io::Result<bool> {
+        while self.now < end {
+            self.step(end)?;
+            if done(self) {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    /// Master poll period: one bit time of its rate, at least a microsecond (profirust's
+    /// time resolution).
+    fn master_poll_ticks(&self) -> Tick {
+        self.master
+            .as_ref()
+            .map(|m| m.phy.timing().clocks_per_bit().max(ticks_from_us(1)))
+            .unwrap_or(Tick::MAX)
+    }
+
+    /// One step: a strict clock where anything moves, a skip over quiet spans otherwise.
+    fn step(&mut self, end: Tick) -> io::Result<()> {
+        if self.master.is_some() && self.now >= self.next_master_poll {
+            let now_us = self.now_us();
+            if let Some(master) = &mut self.master {
+                master.phy.now = self.now;
+                master.poll(now_us);
+            }
+            self.next_master_poll = self.now + self.master_poll_ticks();
+        }
+        if let Some(at) = self.status.poll_at_us {
+            if self.now_us() >= at {
+                let message = ToAdapter::Tick {
+                    seq: self.next_seq(),
+                    now_us: self.now_us(),
+                };
+                let reply = self.firmware.exchange(&message)?;
+                self.apply(&reply);
+            }
+        }
+        let master_drive = self.master.as_ref().and_then(|m| m.phy.tx.drive());
+        let adapter_drive = self.adapter.drive();
+        let line = self.bus.resolve(self.now, [master_drive, adapter_drive]);
+        let mut limit = end - self.now;
+        limit = limit.min(self.next_master_poll.saturating_sub(self.now).max(1));
+        if let Some(at) = self.status.poll_at_us {
+            limit = limit.min(ticks_from_us(at).saturating_sub(self.now).max(1));
+        }
+        let quiet = match &self.master {
+            Some(m) => m.phy.tx.quiet_for().min(m.phy.rx.quiet_for(line)),
+            None => Tick::MAX,
+        }
+        .min(self.bus.faults.quiet_for(self.now))
+        .min(limit);
+        let busy = !line || master_drive.is_some() || adapter_drive.is_some();
+        let (ticks, out) = if quiet > 1 && !busy {
+            self.adapter.advance(line, quiet)
+        } else {
+            (1, self.adapter.tick(line))
+        };
+        if let Some(master) = &mut self.master {
+            if busy {
+                master.phy.last_activity = self.now;
+            }
+            if ticks == 1 {
+                if let Some(ch) = master.phy.rx.tick(line, master_drive.is_some()) {
+                    if ch.error.is_none() {
+                        master.phy.received.push(ch.byte);
+                    } else {
+                        master.phy.char_errors += 1;
+                    }
+                }
+                master.phy.tx.tick();
+            } else {
+                master.phy.rx.skip(ticks);
+                master.phy.tx.skip(ticks);
+            }
+            master.phy.now = self.now + ticks;
+        }
+        if let Some(p) = self.pending {
+            if adapter_drive.is_some() {
+                self.response_started(p.request_end);
+                self.pending = None;
+            }
+        }
+        self.now += ticks;
+        if out.baud_changed {
+            self.baud_changed();
+        }
+        if out.telegram {
+            self.telegram()?;
+        }
+        Ok(())
+    }
+
+    fn baud_changed(&mut self) {
+        let state = self.adapter.baud_state();
+        if let (BaudState::Locked(b), false) = (state, self.last_baud_state == state) {
+            self.figures.locked = Some(b);
+            self.event(format!("transceiver: locked at {b}"));
+        }
+        if state == BaudState::Searching && self.last_baud_state != BaudState::Searching {
+            self.event("transceiver: searching".into());
+        }
+        self.last_baud_state = state;
+    }
+
+    fn response_started(&mut self, request_end: Tick) {
+        let Some(timing) = self.adapter.timing() else {
+            return;
+        };
+        let bits = (self.now - request_end) / timing.clocks_per_bit().max(1);
+        let baud = self.adapter.baud_state().baud();
+        if bits > self.figures.worst_tsdr_bits {
+            self.figures.worst_tsdr_bits = bits;
+            self.figures.worst_tsdr_baud = baud;
+        }
+        if let Some(b) = baud {
+            if bits > u64::from(b.default_max_tsdr_bits()) {
+                self.figures.late_responses += 1;
+            }
+        }
+    }
+
+    fn telegram(&mut self) -> io::Result<()> {
+        let t = self.adapter.telegram();
+        if t.status != TelegramStatus::Good {
+            self.figures.bad_telegrams += 1;
+            return Ok(());
+        }
+        if self.figures.lost_before_lock.is_none() {
+            let sent = self.master.as_ref().map_or(1, |m| m.phy.telegrams_sent);
+            self.figures.lost_before_lock = Some(sent.saturating_sub(1));
+        }
+        let bytes = t.bytes().to_vec();
+        let end = t.end;
+        // The transceiver filters by address as a DP ASIC does: tokens, acknowledgements and
+        // telegrams for other stations never reach the MCU.
+        let ours = match fdl::Telegram::new_checked(&bytes[..]) {
+            Ok(view) if view.has_header() => {
+                let da = view.destination();
+                da == self.status.address || da == dp_consts::BROADCAST_ADDRESS
+            }
+            _ => false,
+        };
+        if !ours {
+            return Ok(());
+        }
+        let baud = self.adapter.baud_state().baud().map_or(0, |b| b.index() as u8);
+        let message = ToAdapter::Telegram {
+            seq: self.next_seq(),
+            now_us: us_from_ticks(end),
+            baud,
+            bytes: &bytes,
+        };
+        self.figures.forwarded += 1;
+        let reply = self.firmware.exchange(&message)?;
+        self.apply(&reply);
+        if !reply.response.is_empty() {
+            self.figures.responses += 1;
+            let turnaround = u64::from(reply.cycles) * CLOCK_HZ as u64 / DECLARED_CLOCK_HZ as u64
+                + 2 * LINK_LATENCY_NS * CLOCK_HZ as u64 / 1_000_000_000;
+            if self.adapter.respond(&reply.response, end + turnaround) {
+                self.pending = Some(Pending { request_end: end });
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,238 @@
+//! The firmware behind the transceiver: the real image under QEMU, or the same logic crate
+//! run in-process for fast host tests of the simulator itself.
+//!
+//! Both speak the link protocol of `dp-link`: one [`ToAdapter`] message, one reply. The QEMU
+//! side is a localhost socket that QEMU's UART0 connects to (`-serial tcp:..`); QEMU's stdout
+//! carries only the defmt stream (semihosting), collected for the caller to decode.
+
+use dp_link::{Deframer, Fed, FromAdapter, Status, ToAdapter, MAX_FRAME_LEN};
+use std::io::{self, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// A reply, owned.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Reply {
+    pub seq: u32,
+    pub response: Vec<u8>,
+    pub cycles: u32,
+    pub status: Status,
+}
+
+/// Something that answers link messages.
+pub trait Firmware {
+    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply>;
+}
+
+/// The adapter crate in-process: the firmware's logic without the RTIC shell (cycles are 0).
+pub struct InProcess {
+    adapter: Option<adapter::Adapter<dp_slave::testing::EchoApp>>,
+    app: fn() -> dp_slave::testing::EchoApp,
+}
+
+impl InProcess {
+    pub fn new(app: fn() -> dp_slave::testing::EchoApp) -> InProcess {
+        InProcess { adapter: None, app }
+    }
+}
+
+impl Firmware for InProcess {
+    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply> {
+        if let ToAdapter::Boot { switch, nv, .. } = *message {
+            self.adapter = Some(adapter::Adapter::boot(switch, nv, (self.app)()));
+        }
+        let adapter = self
+            .adapter
+            .as_mut()
+            .ok_or_else(|| io::Error::other("message before Boot"))?;
+        let (response, status) = adapter.on_message(message);
+        Ok(Reply {
+            seq: message.seq(),
+            response: response.to_vec(),
+            cycles: 0,
+            status,
+        })
+    }
+}
+
+/// How long a reply may take in wall time before the run is declared hung.
+pub const REPLY_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// The firmware image running in `qemu-system-arm`; killed when dropped.
+pub struct Qemu {
+    child: Child,
+    link: TcpStream,
+    deframer: Deframer,
+    pending: Vec<u8>,
+    defmt: Arc<Mutex<Vec<u8>>>,
+    stdout_reader: Option<JoinHandle<()>>,
+}
+
+impl Qemu {
+    /// Starts QEMU with `elf` on the lm3s6965evb, UART0 connected to a fresh localhost socket,
+    /// `-icount shift=7` so that the firmware's cycle counts repeat run to run.
+    pub fn start(qemu: &Path, elf: &Path) -> io::Result<Qemu> {
+        let listener = TcpListener::bind("127.0.0.1:0")?;
+        let port = listener.local_addr()?.port();
+        let mut child = Command::new(qemu)
+            .args([
+                "-machine",
+                "lm3s6965evb",
+                "-cpu",
+                "cortex-m3",
+                "-display",
+                "none",
+                "-monitor",
+                "none",
+                "-serial",
+                &format!("tcp:127.0.0.1:{port}"),
+                "-semihosting-config",
+                "enable=on,target=native",
+                "-icount",
+                "shift=7,align=off,sleep=off",
+                "-kernel",
+            ])
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()?;
+        listener.set_nonblocking(true)?;
+        let start = std::time::Instant::now();
+        let link = loop {
+            match listener.accept() {
+                Ok((stream, _)) => break stream,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                    if let Some(status) = child.try_wait()? {
+                        let mut err = String::new();
+                        if let Some(mut e) = child.stderr.take() {
+                            let _ = e.read_to_string(&mut err);
+                        }
+                        return Err(io::Error::other(format!("QEMU exited ({status}): {err}")));
+                    }
+                    if start.elapsed() > REPLY_TIMEOUT {
+                        let _ = child.kill();
+                        return Err(io::Error::other("QEMU never connected to the link socket"));
+                    }
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => return Err(e),
+            }
+        };
+        link.set_nonblocking(false)?;
+        link.set_nodelay(true)?;
+        link.set_read_timeout(Some(REPLY_TIMEOUT))?;
+        let defmt = Arc::new(Mutex::new(Vec::new()));
+        let mut stdout = child.stdout.take().expect("piped stdout");
+        let sink = defmt.clone();
+        let stdout_reader = std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n) = stdout.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                sink.lock().unwrap().extend_from_slice(&buf[..n]);
+            }
+        });
+        Ok(Qemu {
+            child,
+            link,
+            deframer: Deframer::new(),
+            pending: Vec::new(),
+            defmt,
+            stdout_reader: Some(stdout_reader),
+        })
+    }
+
+    /// The raw defmt bytes QEMU printed so far.
+    pub fn defmt_bytes(&self) -> Vec<u8> {
+        self.defmt.lock().unwrap().clone()
+    }
+
+    /// Whether QEMU has exited, and how.
+    pub fn exit_status(&mut self) -> io::Result<Option<std::process::ExitStatus>> {
+        self.child.try_wait()
+    }
+
+    /// Stops QEMU and returns everything it printed on the defmt stream.
+    pub fn stop(mut self) -> Vec<u8> {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        if let Some(reader) = self.stdout_reader.take() {
+            let _ = reader.join();
+        }
+        self.defmt_bytes()
+    }
+
+    fn read_reply(&mut self) -> io::Result<Reply> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        loop {
+            let mut rest: &[u8] = &self.pending;
+            let mut found = None;
+            let mut consumed = 0;
+            loop {
+                let before = rest.len();
+                match self.deframer.feed::<FromAdapter>(rest) {
+                    Fed::Pending => {
+                        consumed += before;
+                        break;
+                    }
+                    Fed::Dropped(r) => {
+                        consumed += before - r.len();
+                        rest = r;
+                    }
+                    Fed::Message(FromAdapter::Reply { seq, response, cycles, status }, r) => {
+                        consumed += before - r.len();
+                        found = Some(Reply {
+                            seq,
+                            response: response.to_vec(),
+                            cycles,
+                            status,
+                        });
+                        break;
+                    }
+                }
+            }
+            self.pending.drain(..consumed);
+            if let Some(reply) = found {
+                return Ok(reply);
+            }
+            let n = self.link.read(&mut buf).map_err(|e| {
+                io::Error::new(e.kind(), format!("no reply from the firmware: {e}"))
+            })?;
+            if n == 0 {
+                return Err(io::Error::other("QEMU closed the link (the firmware exited)"));
+            }
+            self.pending.extend_from_slice(&buf[..n]);
+        }
+    }
+}
+
+impl Firmware for Qemu {
+    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply> {
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let bytes = dp_link::encode(message, &mut frame)
+            .map_err(|_| io::Error::other("message does not fit a frame"))?;
+        self.link.write_all(bytes)?;
+        let reply = self.read_reply()?;
+        if reply.seq != message.seq() {
+            return Err(io::Error::other(format!(
+                "reply {} to message {}",
+                reply.seq,
+                message.seq()
+            )));
+        }
+        Ok(reply)
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}

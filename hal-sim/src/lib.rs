@@ -1,0 +1,14 @@
+//! The simulated hardware around the adapter's MCU.
+//!
+//! - [`cosim::CoSim`]: one clock for the bus, the profirust master on its bit-level PHY
+//!   ([`master::MasterPhy`]), the transceiver model, the fault injector, and the board's
+//!   switch, storage and LEDs.
+//! - [`firmware`]: the firmware behind the transceiver, the real image in QEMU
+//!   ([`firmware::Qemu`]) or its logic in-process ([`firmware::InProcess`]).
+//! - [`scenario`]: the scenarios of `cargo xtask qemu-test`, each with its checks.
+#![deny(unsafe_code)]
+
+pub mod cosim;
+pub mod firmware;
+pub mod master;
+pub mod scenario;

@@ -73,6 +73,8 @@ pub struct Master {
     pub outputs: Vec<u8>,
     pub inputs_checked: u64,
     pub inputs_wrong: u64,
+    /// A commissioning tool, not profirust: only the PHY is used, by [`CoSim::tool_request`].
+    pub tool: bool,
 }
 
 fn profirust_baud(baud: Baud) -> profirust::Baudrate {
@@ -134,6 +136,7 @@ impl Master {
             cycles: 0,
             inputs_checked: 0,
             inputs_wrong: 0,
+            tool: false,
         }
     }
 
@@ -143,6 +146,9 @@ impl Master {
     }
 
     fn poll(&mut self, now_us: u64) {
+        if self.tool {
+            return;
+        }
         let now = profirust::time::Instant::from_micros(now_us as i64);
         self.fdl.poll(now, &mut self.phy, &mut self.dp);
         let events = self.dp.take_last_events();
@@ -246,6 +252,7 @@ impl<F: Firmware> CoSim<F> {
                 poll_at_us: None,
                 outputs_applied: 0,
                 fail_safes: 0,
+                malformed_telegrams: 0,
             },
             figures: Figures::default(),
             events: Vec::new(),
@@ -272,9 +279,10 @@ impl<F: Firmware> CoSim<F> {
     }
 
     /// A power cycle of the board: the firmware restarts from the switch and the storage.
-    pub fn power_cycle(&mut self, restart: impl FnOnce(&mut F) -> io::Result<()>) -> io::Result<()> {
-        restart(&mut self.firmware)?;
-        self.adapter = Transceiver::new(self.adapter.config());
+    pub fn power_cycle(&mut self) -> io::Result<()> {
+        self.event("power cycle".into());
+        self.firmware.restart()?;
+        self.adapter = Transceiver::reset_at(self.adapter.config(), self.now);
         self.pending = None;
         self.last_baud_state = BaudState::Searching;
         self.boot()
@@ -294,6 +302,27 @@ impl<F: Firmware> CoSim<F> {
         self.event(format!("master: {} at {}", setup.address, setup.baud));
         self.master = Some(Master::new(setup, self.now));
         self.next_master_poll = self.now;
+    }
+
+    /// A class 2 master's request (a commissioning tool), for services profirust does not
+    /// offer (Set_Slave_Add): sent bit by bit after TSYN, the answer read back from the line
+    /// within `slot_bits`. Replaces any running master.
+    pub fn tool_request(&mut self, setup: MasterSetup, request: &[u8], slot_bits: u64) -> io::Result<Option<Vec<u8>>> {
+        self.event(format!("tool: request {:02X?}", request));
+        let mut tool = Master::new(setup, self.now);
+        tool.tool = true;
+        tool.phy.send(request);
+        let cpb = tool.phy.timing().clocks_per_bit();
+        let sent_bits = (request.len() as u64 + 4) * 11;
+        self.master = Some(tool);
+        let end = self.now + (sent_bits + u64::from(dp_consts::TSYN_BITS) + slot_bits) * cpb;
+        let answered = self.run_until(end, |s| {
+            let received = &s.master.as_ref().unwrap().phy.received;
+            fdl::Repr::parse_bytes(received).is_ok()
+        })?;
+        let answer = self.master.take().unwrap().phy.received;
+        self.event(format!("tool: answer {:02X?}", answer));
+        Ok(answered.then_some(answer))
     }
 
     /// Silences the master (it disappears from the bus).

@@ -8,7 +8,7 @@
 use dp_link::{Deframer, Fed, FromAdapter, Status, ToAdapter, MAX_FRAME_LEN};
 use std::io::{self, Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -26,6 +26,9 @@ pub struct Reply {
 /// Something that answers link messages.
 pub trait Firmware {
     fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply>;
+
+    /// Power cycle: the firmware starts from reset (it then expects a Boot).
+    fn restart(&mut self) -> io::Result<()>;
 }
 
 /// The adapter crate in-process: the firmware's logic without the RTIC shell (cycles are 0).
@@ -57,6 +60,11 @@ impl Firmware for InProcess {
             status,
         })
     }
+
+    fn restart(&mut self) -> io::Result<()> {
+        self.adapter = None;
+        Ok(())
+    }
 }
 
 /// How long a reply may take in wall time before the run is declared hung.
@@ -64,6 +72,10 @@ pub const REPLY_TIMEOUT: Duration = Duration::from_secs(20);
 
 /// The firmware image running in `qemu-system-arm`; killed when dropped.
 pub struct Qemu {
+    qemu: PathBuf,
+    elf: PathBuf,
+    /// defmt bytes of earlier power cycles, each run's stream decoded on its own.
+    earlier_runs: Vec<Vec<u8>>,
     child: Child,
     link: TcpStream,
     deframer: Deframer,
@@ -139,6 +151,9 @@ impl Qemu {
             }
         });
         Ok(Qemu {
+            qemu: qemu.to_path_buf(),
+            elf: elf.to_path_buf(),
+            earlier_runs: Vec::new(),
             child,
             link,
             deframer: Deframer::new(),
@@ -158,14 +173,21 @@ impl Qemu {
         self.child.try_wait()
     }
 
-    /// Stops QEMU and returns everything it printed on the defmt stream.
-    pub fn stop(mut self) -> Vec<u8> {
+    /// Stops QEMU and returns the defmt stream of every run since the first start, one per
+    /// power cycle.
+    pub fn stop(mut self) -> Vec<Vec<u8>> {
+        self.kill_and_collect();
+        std::mem::take(&mut self.earlier_runs)
+    }
+
+    fn kill_and_collect(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
         if let Some(reader) = self.stdout_reader.take() {
             let _ = reader.join();
         }
-        self.defmt_bytes()
+        let bytes = std::mem::take(&mut *self.defmt.lock().unwrap());
+        self.earlier_runs.push(bytes);
     }
 
     fn read_reply(&mut self) -> io::Result<Reply> {
@@ -227,6 +249,23 @@ impl Firmware for Qemu {
             )));
         }
         Ok(reply)
+    }
+
+    fn restart(&mut self) -> io::Result<()> {
+        self.restart_process()
+    }
+}
+
+impl Qemu {
+    fn restart_process(&mut self) -> io::Result<()> {
+        self.kill_and_collect();
+        let earlier = std::mem::take(&mut self.earlier_runs);
+        let fresh = Qemu::start(&self.qemu, &self.elf)?;
+        // Swap the fresh process in; the old (already dead) one is dropped with `fresh`.
+        let old = std::mem::replace(self, fresh);
+        drop(old);
+        self.earlier_runs = earlier;
+        Ok(())
     }
 }
 

@@ -1,0 +1,263 @@
+//! The scenarios of `cargo xtask qemu-test`: each powers the board up, drives the bus, and
+//! checks what the device must do. A scenario fails on any failed check, and always when a
+//! response started later than max TSDR, when the firmware saw a telegram that does not parse,
+//! when the loopback inputs did not answer the outputs, or when two stations drove the line.
+
+use crate::cosim::{CoSim, Figures, MasterSetup};
+use crate::firmware::Firmware;
+use dp_consts::Baud;
+use dp_link::{Led, NvRecord, SlaveState};
+use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
+use profirust::dp::DiagnosticFlags;
+use std::io;
+
+/// The station address the switch sets in most scenarios.
+pub const SWITCH_ADDRESS: u8 = 8;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Power-up, autodetect and data exchange at one rate.
+    Autodetect(Baud),
+    /// The master changes its rate mid-run; the adapter follows.
+    RateChange { from: Baud, to: Baud },
+    /// The master disappears: watchdog, fail-safe, then recovery.
+    WatchdogFailSafe,
+    /// A Set_Prm with a wrong Ident_Number.
+    PrmFault,
+    /// A Chk_Cfg that is none of the PPOs.
+    CfgFault,
+    /// Set_Slave_Add with the switch at 0, then a power cycle.
+    SetSlaveAdd,
+    /// Switch 99 restores the factory defaults.
+    FactoryReset,
+    /// A burst of line noise during data exchange.
+    LineNoise,
+}
+
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    pub name: String,
+    pub kind: Kind,
+}
+
+/// Every scenario, in the order they run.
+pub fn all() -> Vec<Scenario> {
+    let mut list: Vec<Scenario> = Baud::ALL
+        .iter()
+        .map(|b| Scenario {
+            name: format!("autodetect-{}", b.to_string().replace('.', "_")),
+            kind: Kind::Autodetect(*b),
+        })
+        .collect();
+    let more = [
+        ("rate-change", Kind::RateChange { from: Baud::B1500000, to: Baud::B93750 }),
+        ("watchdog-fail-safe", Kind::WatchdogFailSafe),
+        ("prm-fault", Kind::PrmFault),
+        ("cfg-fault", Kind::CfgFault),
+        ("set-slave-add", Kind::SetSlaveAdd),
+        ("factory-reset", Kind::FactoryReset),
+        ("line-noise", Kind::LineNoise),
+    ];
+    list.extend(more.into_iter().map(|(name, kind)| Scenario {
+        name: name.into(),
+        kind,
+    }));
+    list
+}
+
+/// The result of one scenario.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    pub name: String,
+    pub checks: Vec<(String, bool)>,
+    pub figures: Figures,
+    pub events: Vec<String>,
+    pub leds: dp_link::Leds,
+}
+
+impl Outcome {
+    pub fn passed(&self) -> bool {
+        self.checks.iter().all(|(_, ok)| *ok)
+    }
+}
+
+struct Checks(Vec<(String, bool)>);
+
+impl Checks {
+    fn check(&mut self, what: impl Into<String>, ok: bool) {
+        self.0.push((what.into(), ok));
+    }
+}
+
+/// Sim-time limit for reaching a goal: generous, since a miss is a failure, not a hang.
+fn limit_us(baud: Baud) -> u64 {
+    match baud {
+        Baud::B9600 | Baud::B19200 => 6_000_000,
+        Baud::B45450 | Baud::B93750 => 3_000_000,
+        _ => 1_500_000,
+    }
+}
+
+/// Data exchange cycles that make a rate's run convincing without slowing the slow ones.
+fn cycles_for(baud: Baud) -> u64 {
+    if baud.bits_per_second() < 100_000 {
+        10
+    } else {
+        50
+    }
+}
+
+/// Runs until the master completed `cycles` more data exchange cycles.
+fn exchange<F: Firmware>(sim: &mut CoSim<F>, cycles: u64, limit_us: u64) -> io::Result<bool> {
+    let start = sim.master.as_ref().map_or(0, |m| m.cycles);
+    let end = sim.now + limit_us * 48;
+    sim.run_until(end, |s| s.master.as_ref().is_some_and(|m| m.cycles >= start + cycles))
+}
+
+fn diag_flags<F: Firmware>(sim: &mut CoSim<F>) -> Option<DiagnosticFlags> {
+    let master = sim.master.as_mut()?;
+    let peripheral = master.dp.get_mut(master.handle);
+    peripheral.last_diagnostics().map(|d| d.flags)
+}
+
+/// Runs one scenario on a freshly powered board.
+pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome, F)> {
+    let (switch, nv) = match scenario.kind {
+        Kind::SetSlaveAdd => (0, None),
+        Kind::FactoryReset => (
+            99,
+            Some(NvRecord {
+                address: 42,
+                no_add_chg: true,
+            }),
+        ),
+        _ => (SWITCH_ADDRESS, None),
+    };
+    let mut sim = CoSim::new(firmware, switch, nv)?;
+    let mut c = Checks(Vec::new());
+    match scenario.kind {
+        Kind::Autodetect(baud) => {
+            sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
+            let ok = exchange(&mut sim, cycles_for(baud), limit_us(baud))?;
+            c.check(format!("{} data exchange cycles at {baud}", cycles_for(baud)), ok);
+            c.check(format!("transceiver locked at {baud}"), sim.figures.locked == Some(baud));
+        }
+        Kind::RateChange { from, to } => {
+            sim.start_master(MasterSetup::new(from, SWITCH_ADDRESS));
+            let ok = exchange(&mut sim, 20, limit_us(from))?;
+            c.check(format!("data exchange at {from}"), ok);
+            sim.start_master(MasterSetup::new(to, SWITCH_ADDRESS));
+            let ok = exchange(&mut sim, cycles_for(to), limit_us(to))?;
+            c.check(format!("data exchange again at {to}"), ok);
+            c.check(format!("transceiver followed to {to}"), sim.figures.locked == Some(to));
+        }
+        Kind::WatchdogFailSafe => {
+            let baud = Baud::B1500000;
+            sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
+            let ok = exchange(&mut sim, 20, limit_us(baud))?;
+            c.check("data exchange", ok);
+            let fail_safes = sim.status.fail_safes;
+            sim.stop_master();
+            // The master's watchdog is 200 ms; wait past it.
+            sim.run_for_us(300_000)?;
+            c.check("watchdog expired: Wait_Prm", sim.status.state == SlaveState::WaitPrm);
+            c.check("outputs went to fail-safe", sim.status.fail_safes > fail_safes);
+            c.check("Net LED blinks, offline LED on", sim.status.leds.net == Led::Blink2Hz && sim.status.leds.offline == Led::On);
+            sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
+            let ok = exchange(&mut sim, 20, limit_us(baud))?;
+            c.check("data exchange after the master returned", ok);
+        }
+        Kind::PrmFault => {
+            let baud = Baud::B1500000;
+            let mut setup = MasterSetup::new(baud, SWITCH_ADDRESS);
+            setup.ident_number ^= 0x0001;
+            sim.start_master(setup);
+            sim.run_for_us(300_000)?;
+            c.check("no data exchange", sim.status.state != SlaveState::DataExch);
+            let flags = diag_flags(&mut sim);
+            c.check("the master reads Prm_Fault", flags.is_some_and(|f| f.contains(DiagnosticFlags::PARAMETER_FAULT)));
+            c.check("error LED blinks at 2 Hz", sim.status.leds.error == Led::Blink2Hz);
+        }
+        Kind::CfgFault => {
+            let baud = Baud::B1500000;
+            let mut setup = MasterSetup::new(baud, SWITCH_ADDRESS);
+            setup.config = vec![0xF5, 0xF1];
+            sim.start_master(setup);
+            sim.run_for_us(300_000)?;
+            c.check("no data exchange", sim.status.state != SlaveState::DataExch);
+            let flags = diag_flags(&mut sim);
+            c.check("the master reads Cfg_Fault", flags.is_some_and(|f| f.contains(DiagnosticFlags::CONFIGURATION_FAULT)));
+            c.check("error LED blinks at 1 Hz", sim.status.leds.error == Led::Blink1Hz);
+        }
+        Kind::SetSlaveAdd => {
+            let baud = Baud::B1500000;
+            c.check("switch 0, empty storage: address 126", sim.status.address == 126);
+            let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
+            let payload = [42, hi, lo, 0];
+            let request = Repr::Data(DataRepr {
+                da: 126,
+                sa: 1,
+                dsap: Some(Sap::SET_SLAVE_ADD),
+                ssap: Some(Sap::MASTER_MS0),
+                fc: FrameControl::Request { fcb: true, fcv: false, function: RequestFunction::SrdLow },
+                payload: &payload,
+            });
+            let mut bytes = vec![0u8; request.buffer_len()];
+            request.emit(&mut bytes).expect("a valid request");
+            let mut tool = MasterSetup::new(baud, 126);
+            tool.address = 1;
+            let answer = sim.tool_request(tool, &bytes, 300)?;
+            c.check("Set_Slave_Add acknowledged (SC)", answer.as_deref() == Some(&[dp_consts::SC][..]));
+            c.check("storage holds address 42", sim.nv == Some(NvRecord { address: 42, no_add_chg: false }));
+            sim.run_for_us(1_000)?;
+            sim.power_cycle()?;
+            c.check("after a power cycle: address 42", sim.status.address == 42);
+            sim.start_master(MasterSetup::new(baud, 42));
+            let ok = exchange(&mut sim, 20, limit_us(baud))?;
+            c.check("data exchange at address 42", ok);
+        }
+        Kind::FactoryReset => {
+            let baud = Baud::B1500000;
+            c.check("switch 99: address 126", sim.status.address == 126);
+            c.check("storage reset to the factory defaults", sim.nv == Some(adapter::FACTORY_DEFAULTS));
+            sim.start_master(MasterSetup::new(baud, 126));
+            let ok = exchange(&mut sim, 20, limit_us(baud))?;
+            c.check("data exchange at address 126", ok);
+            sim.stop_master();
+            sim.switch = 0;
+            sim.power_cycle()?;
+            c.check("switch 0 after the reset: address 126 from storage", sim.status.address == 126);
+        }
+        Kind::LineNoise => {
+            let baud = Baud::B1500000;
+            sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
+            let ok = exchange(&mut sim, 20, limit_us(baud))?;
+            c.check("data exchange before the noise", ok);
+            let from = sim.now;
+            let to = from + 20_000 * 48;
+            // Glitches up to 2 bit times long, 2000 of them over 20 ms.
+            sim.bus.faults.glitches(0x5EED, from, to, 2000, 64);
+            sim.run_until(to, |_| false)?;
+            c.check("the noise broke telegrams", sim.figures.bad_telegrams > 0 || sim.master.as_ref().is_some_and(|m| m.phy.char_errors > 0));
+            let ok = exchange(&mut sim, 50, limit_us(baud))?;
+            c.check("data exchange recovered", ok);
+        }
+    }
+    let figures = sim.figures.clone();
+    c.check("no response later than max TSDR", figures.late_responses == 0);
+    c.check("the firmware never got a malformed telegram", sim.status.malformed_telegrams == 0);
+    if let Some(m) = &sim.master {
+        c.check("inputs answered the outputs", m.inputs_wrong == 0);
+    }
+    c.check("no collision on the line", sim.bus.collisions == 0);
+    let mut figures = figures;
+    figures.collisions = sim.bus.collisions;
+    let outcome = Outcome {
+        name: scenario.name.clone(),
+        checks: c.0,
+        figures,
+        events: sim.events.clone(),
+        leds: sim.status.leds,
+    };
+    Ok((outcome, sim.firmware))
+}

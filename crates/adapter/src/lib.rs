@@ -144,6 +144,7 @@ pub struct Adapter<A> {
     addressing: Addressing,
     /// Data exchange happened since power-up: leaving it is a fault (Net blinks).
     exchanged: bool,
+    malformed_telegrams: u16,
     response: [u8; dp_consts::MAX_TELEGRAM_LEN],
 }
 
@@ -169,6 +170,7 @@ impl<A: Application> Adapter<A> {
             slave,
             addressing,
             exchanged: false,
+            malformed_telegrams: 0,
             response: [0; dp_consts::MAX_TELEGRAM_LEN],
         }
     }
@@ -189,10 +191,19 @@ impl<A: Application> Adapter<A> {
     /// the response telegram (empty for none) and the status after it.
     pub fn on_message(&mut self, message: &ToAdapter) -> (&[u8], Status) {
         let len = match *message {
-            ToAdapter::Telegram { now_us, bytes, .. } => {
-                let now = Instant::from_micros(now_us);
-                self.slave.handle(now, bytes, &mut self.response).unwrap_or(0)
-            }
+            ToAdapter::Telegram { now_us, bytes, .. } => match fdl::Repr::parse_bytes(bytes) {
+                Ok((request, _)) => {
+                    let now = Instant::from_micros(now_us);
+                    match self.slave.process(now, &request) {
+                        Some(response) => response.emit(&mut self.response).unwrap_or(0),
+                        None => 0,
+                    }
+                }
+                Err(_) => {
+                    self.malformed_telegrams = self.malformed_telegrams.saturating_add(1);
+                    0
+                }
+            },
             ToAdapter::Tick { now_us, .. } => {
                 self.slave.poll(Instant::from_micros(now_us));
                 0
@@ -219,6 +230,7 @@ impl<A: Application> Adapter<A> {
             poll_at_us: self.slave.poll_at().map(Instant::micros),
             outputs_applied: app.outputs_applied,
             fail_safes: app.fail_safes,
+            malformed_telegrams: self.malformed_telegrams,
         }
     }
 

@@ -96,6 +96,8 @@ pub struct Status {
     pub outputs_applied: u32,
     /// Fail-safe entries since boot.
     pub fail_safes: u16,
+    /// Telegrams from the link that did not parse (the transceiver must never deliver one).
+    pub malformed_telegrams: u16,
 }
 
 /// The DP slave states.
@@ -218,6 +220,7 @@ mod tests {
             poll_at_us: Some(1_000_000),
             outputs_applied: 7,
             fail_safes: 1,
+            malformed_telegrams: 0,
         }
     }
 

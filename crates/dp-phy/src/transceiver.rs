@@ -152,6 +152,16 @@ impl Transceiver {
         }
     }
 
+    /// A transceiver coming out of reset at tick `now` of a bus that kept running (a power
+    /// cycle of the board): as `new`, with the line's idle time counted from `now`.
+    pub fn reset_at(cfg: Config, now: Tick) -> Self {
+        Transceiver {
+            now,
+            quiet_since: now,
+            ..Transceiver::new(cfg)
+        }
+    }
+
     pub fn now(&self) -> Tick {
         self.now
     }

@@ -100,12 +100,15 @@ impl Qemu {
                 "none",
                 "-monitor",
                 "none",
+                // nodelay: replies go out a byte at a time; Nagle would hold them back.
+                "-chardev",
+                &format!("socket,id=link,host=127.0.0.1,port={port},nodelay=on"),
                 "-serial",
-                &format!("tcp:127.0.0.1:{port}"),
+                "chardev:link",
                 "-semihosting-config",
                 "enable=on,target=native",
                 "-icount",
-                "shift=7,align=off,sleep=off",
+                &std::env::var("HALSIM_ICOUNT").unwrap_or_else(|_| "shift=7,align=off,sleep=off".into()),
                 "-kernel",
             ])
             .arg(elf)

@@ -77,7 +77,8 @@ pub fn link_tx() -> Uart {
 }
 
 /// Sets up the link UART with receive interrupts and SysTick as a free-running cycle counter.
-pub fn init(mut syst: SYST) -> Board {
+pub fn init(core: cortex_m::Peripherals, _device: pac::Peripherals) -> Board {
+    let mut syst = core.SYST;
     syst.set_clock_source(SystClkSource::Core);
     syst.set_reload(0x00FF_FFFF);
     syst.clear_current();

@@ -1,0 +1,125 @@
+//! The production board: an STM32F103C8 at 72 MHz (8 MHz crystal, PLL x9). USART1 (PA9 TX,
+//! PA10 RX) carries the link to the transceiver FPGA at 4.5 Mbit/s, the fastest USART1 runs at
+//! 72 MHz; USART2 is kept for the drive link. defmt goes out over RTT; a panic resets the chip.
+//!
+//! The rotary switch, the address EEPROM and the LEDs hang on the FPGA, which reads the switch
+//! and the storage into the Boot message, writes the storage from `Status::nv_write` and drives
+//! the LEDs from `Status::leds`: the firmware is the same on both boards.
+
+pub use stm32f1::stm32f103 as pac;
+
+use cortex_m::peripheral::DWT;
+
+pub const NAME: &str = "STM32F103C8 (production)";
+
+const SYSCLK_HZ: u32 = 72_000_000;
+const LINK_BAUD: u32 = 4_500_000;
+
+// RCC_CR
+const HSEON: u32 = 1 << 16;
+const HSERDY: u32 = 1 << 17;
+const PLLON: u32 = 1 << 24;
+const PLLRDY: u32 = 1 << 25;
+// RCC_CFGR: PLL from HSE, x9; APB1 /2 (36 MHz at most); system clock from the PLL.
+const CFGR_PLLSRC_HSE: u32 = 1 << 16;
+const CFGR_PLLMUL_9: u32 = 0b0111 << 18;
+const CFGR_PPRE1_DIV2: u32 = 0b100 << 8;
+const CFGR_SW_PLL: u32 = 0b10;
+const CFGR_SWS_MASK: u32 = 0b11 << 2;
+const CFGR_SWS_PLL: u32 = 0b10 << 2;
+// FLASH_ACR: two wait states above 48 MHz, prefetch on.
+const ACR_LATENCY_2_PRFTBE: u32 = 0b010 | (1 << 4);
+// RCC_APB2ENR
+const IOPAEN: u32 = 1 << 2;
+const USART1EN: u32 = 1 << 14;
+// GPIOA_CRH, pin 9: alternate function push-pull, 50 MHz.
+const CRH_PIN9_MASK: u32 = 0xF << 4;
+const CRH_PIN9_AF_PP_50MHZ: u32 = 0xB << 4;
+// USART
+const SR_RXNE: u16 = 1 << 5;
+const SR_TXE: u16 = 1 << 7;
+const CR1_UE_TE_RE_RXNEIE: u16 = (1 << 13) | (1 << 3) | (1 << 2) | (1 << 5);
+
+/// One half of USART1 (receive in the interrupt, transmit in the link task).
+pub struct Uart {
+    _private: (),
+}
+
+fn usart1() -> &'static pac::usart1::RegisterBlock {
+    // SAFETY: USART1's register block is always mapped; the receive half reads SR and DR, the
+    // transmit half polls SR.TXE and writes DR, so the two never step on each other.
+    unsafe { &*pac::USART1::ptr() }
+}
+
+impl Uart {
+    /// The next received byte, if one is waiting.
+    pub fn read_byte(&mut self) -> Option<u8> {
+        let u = usart1();
+        (u.sr().read().bits() & SR_RXNE != 0).then(|| u.dr().read().bits() as u8)
+    }
+
+    /// Sends one byte, waiting for the data register to empty.
+    pub fn write_byte(&mut self, byte: u8) {
+        let u = usart1();
+        while u.sr().read().bits() & SR_TXE == 0 {}
+        // SAFETY: any 8-bit value is a valid DR write.
+        u.dr().write(|w| unsafe { w.bits(u16::from(byte)) });
+    }
+
+    /// Reading DR in `read_byte` already cleared RXNE.
+    pub fn clear_rx_interrupt(&mut self) {}
+}
+
+pub struct Board {
+    pub link: Uart,
+}
+
+pub fn link_tx() -> Uart {
+    Uart { _private: () }
+}
+
+/// 72 MHz from the crystal, USART1 at 4.5 Mbit/s with its receive interrupt, the DWT cycle
+/// counter for turnaround figures.
+pub fn init(mut core: cortex_m::Peripherals, device: pac::Peripherals) -> Board {
+    let rcc = &device.RCC;
+    // SAFETY (all `bits` writes below): the values are the documented bit patterns named above.
+    rcc.cr().modify(|r, w| unsafe { w.bits(r.bits() | HSEON) });
+    while rcc.cr().read().bits() & HSERDY == 0 {}
+    device.FLASH.acr().write(|w| unsafe { w.bits(ACR_LATENCY_2_PRFTBE) });
+    rcc.cfgr()
+        .write(|w| unsafe { w.bits(CFGR_PLLSRC_HSE | CFGR_PLLMUL_9 | CFGR_PPRE1_DIV2) });
+    rcc.cr().modify(|r, w| unsafe { w.bits(r.bits() | PLLON) });
+    while rcc.cr().read().bits() & PLLRDY == 0 {}
+    rcc.cfgr().modify(|r, w| unsafe { w.bits(r.bits() | CFGR_SW_PLL) });
+    while rcc.cfgr().read().bits() & CFGR_SWS_MASK != CFGR_SWS_PLL {}
+
+    rcc.apb2enr().modify(|r, w| unsafe { w.bits(r.bits() | IOPAEN | USART1EN) });
+    device
+        .GPIOA
+        .crh()
+        .modify(|r, w| unsafe { w.bits((r.bits() & !CRH_PIN9_MASK) | CRH_PIN9_AF_PP_50MHZ) });
+    let usart = &device.USART1;
+    usart.brr().write(|w| unsafe { w.bits((SYSCLK_HZ / LINK_BAUD) as u16) });
+    usart.cr1().write(|w| unsafe { w.bits(CR1_UE_TE_RE_RXNEIE) });
+
+    core.DCB.enable_trace();
+    core.DWT.enable_cycle_counter();
+    Board {
+        link: Uart { _private: () },
+    }
+}
+
+/// A timestamp for [`cycles_since`].
+pub fn timestamp() -> u32 {
+    DWT::cycle_count()
+}
+
+/// CPU cycles since `start`, from the DWT cycle counter.
+pub fn cycles_since(start: u32) -> u32 {
+    DWT::cycle_count().wrapping_sub(start)
+}
+
+/// A panic or HardFault on the board: reset and come up again.
+pub fn exit_failure() -> ! {
+    cortex_m::peripheral::SCB::sys_reset()
+}

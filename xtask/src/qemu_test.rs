@@ -1,0 +1,337 @@
+//! `cargo xtask qemu-test`: the real firmware image under QEMU against hal-sim, scenario by
+//! scenario.
+//!
+//! On a fresh machine it first installs what it lacks: the `thumbv7m-none-eabi` target
+//! through rustup, and `qemu-system-arm` through apt-get when run as root (otherwise it
+//! names the command). It builds both board images, reports their flash and RAM, then runs
+//! each scenario in its own QEMU, decodes the firmware's defmt log in-process, and compares
+//! the scenario's events and log with `ci/expected/qemu-test/<name>.txt` (`--overwrite`
+//! regenerates them). The last line is `qemu-test: N passed, M failed`.
+
+use crate::{check_flags, flag_value, project_root};
+use anyhow::{anyhow, bail, Context, Result};
+use hal_sim::cosim::DECLARED_CLOCK_HZ;
+use hal_sim::firmware::Qemu;
+use hal_sim::scenario::{self, Outcome};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+const TARGET: &str = "thumbv7m-none-eabi";
+
+/// One firmware image: the board, its feature, its limits.
+struct Image {
+    board: &'static str,
+    features: &'static [&'static str],
+    flash_limit: u64,
+    ram_limit: u64,
+}
+
+const IMAGES: [Image; 2] = [
+    Image {
+        board: "lm3s6965",
+        features: &[],
+        flash_limit: 256 * 1024,
+        ram_limit: 64 * 1024,
+    },
+    Image {
+        board: "stm32f103",
+        features: &["--no-default-features", "--features", "stm32f103"],
+        flash_limit: 64 * 1024,
+        ram_limit: 20 * 1024,
+    },
+];
+
+pub fn run(args: &[String]) -> Result<()> {
+    check_flags(args, &["--overwrite"], &["--only"])?;
+    let overwrite = args.iter().any(|a| a == "--overwrite");
+    let only = flag_value(args, "--only")?;
+
+    ensure_target()?;
+    let qemu = ensure_qemu()?;
+    let mut failures = 0usize;
+    let mut elf_for_qemu = None;
+    println!("firmware images:");
+    for image in &IMAGES {
+        let elf = build(image)?;
+        let (flash, ram) = image_size(&elf)?;
+        let fits = flash <= image.flash_limit && ram <= image.ram_limit;
+        println!(
+            "  {:<10} flash {:>6} B of {:>6} B, RAM {:>6} B of {:>6} B (static; the stack takes the rest){}",
+            image.board,
+            flash,
+            image.flash_limit,
+            ram,
+            image.ram_limit,
+            if fits { "" } else { "  DOES NOT FIT" }
+        );
+        if !fits {
+            failures += 1;
+        }
+        if image.board == "lm3s6965" {
+            elf_for_qemu = Some(elf);
+        }
+    }
+    let elf = elf_for_qemu.expect("the QEMU image is in IMAGES");
+    let elf_bytes = std::fs::read(&elf)?;
+    let table = defmt_decoder::Table::parse(&elf_bytes)?
+        .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
+
+    let expected_dir = project_root().join("ci/expected/qemu-test");
+    let scenarios: Vec<_> = scenario::all()
+        .into_iter()
+        .filter(|s| only.is_none_or(|o| s.name == o))
+        .collect();
+    if scenarios.is_empty() {
+        bail!("no scenario named {:?}", only.unwrap_or_default());
+    }
+    let started = Instant::now();
+    let mut rows = Vec::new();
+    for (i, s) in scenarios.iter().enumerate() {
+        let t0 = Instant::now();
+        let result = run_one(&qemu, &elf, &table, s, &expected_dir, overwrite);
+        let (ok, detail, outcome) = match result {
+            Ok((outcome, golden)) => {
+                let mut problems: Vec<String> = outcome
+                    .checks
+                    .iter()
+                    .filter(|(_, ok)| !ok)
+                    .map(|(what, _)| format!("check failed: {what}"))
+                    .collect();
+                problems.extend(golden);
+                (problems.is_empty(), problems, Some(outcome))
+            }
+            Err(e) => (false, vec![format!("error: {e:#}")], None),
+        };
+        println!(
+            "[{:>2}/{}] {:<24} {} ({:.1} s)",
+            i + 1,
+            scenarios.len(),
+            s.name,
+            if ok { "ok" } else { "FAILED" },
+            t0.elapsed().as_secs_f64()
+        );
+        for d in &detail {
+            println!("        {d}");
+        }
+        if !ok {
+            failures += 1;
+        }
+        rows.push((s.name.clone(), ok, outcome));
+    }
+    print_table(&rows);
+    let passed = rows.iter().filter(|(_, ok, _)| *ok).count();
+    println!(
+        "scenarios ran in {:.1} s after the build; waveform-free run, logs in ci/expected/qemu-test/",
+        started.elapsed().as_secs_f64()
+    );
+    println!("qemu-test: {passed} passed, {failures} failed");
+    if failures > 0 {
+        std::process::exit(1);
+    }
+    Ok(())
+}
+
+/// Runs one scenario in its own QEMU; returns the outcome and any golden-file problems.
+fn run_one(
+    qemu: &Path,
+    elf: &Path,
+    table: &defmt_decoder::Table,
+    s: &scenario::Scenario,
+    expected_dir: &Path,
+    overwrite: bool,
+) -> Result<(Outcome, Vec<String>)> {
+    let firmware = Qemu::start(qemu, elf).context("starting QEMU")?;
+    let (outcome, firmware) = scenario::run(s, firmware)?;
+    let streams = firmware.stop();
+    let mut text = String::new();
+    for line in &outcome.events {
+        text.push_str(line);
+        text.push('\n');
+    }
+    let mut problems = Vec::new();
+    for (run, bytes) in streams.iter().enumerate() {
+        text.push_str(&format!("--- firmware log, power-up {} ---\n", run + 1));
+        for (level, message) in decode(table, bytes)? {
+            if level == "ERROR" {
+                problems.push(format!("firmware error: {message}"));
+            }
+            text.push_str(&format!("{level:<5} {message}\n"));
+        }
+    }
+    let path = expected_dir.join(format!("{}.txt", s.name));
+    if overwrite {
+        std::fs::create_dir_all(expected_dir)?;
+        std::fs::write(&path, &text)?;
+    } else {
+        match std::fs::read_to_string(&path) {
+            Ok(want) if want == text => {}
+            Ok(want) => problems.push(format!("differs from {}:\n{}", path.display(), diff(&want, &text))),
+            Err(_) => problems.push(format!(
+                "no expected file {} (run `cargo xtask qemu-test --overwrite` and review it)",
+                path.display()
+            )),
+        }
+    }
+    Ok((outcome, problems))
+}
+
+/// The defmt frames of one QEMU run, as (level, message).
+fn decode(table: &defmt_decoder::Table, bytes: &[u8]) -> Result<Vec<(String, String)>> {
+    let mut decoder = table.new_stream_decoder();
+    decoder.received(bytes);
+    let mut lines = Vec::new();
+    loop {
+        match decoder.decode() {
+            Ok(frame) => {
+                let level = frame
+                    .level()
+                    .map_or("PRINT".to_string(), |l| format!("{l:?}").to_uppercase());
+                lines.push((level, frame.display_message().to_string()));
+            }
+            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
+            Err(defmt_decoder::DecodeError::Malformed) => {
+                bail!("malformed defmt frame: something else wrote onto the defmt stream")
+            }
+        }
+    }
+    Ok(lines)
+}
+
+/// A line diff, small and dependency-free: the expected and actual lines around the first
+/// difference.
+fn diff(want: &str, got: &str) -> String {
+    let w: Vec<&str> = want.lines().collect();
+    let g: Vec<&str> = got.lines().collect();
+    let first = w.iter().zip(&g).position(|(a, b)| a != b).unwrap_or(w.len().min(g.len()));
+    let mut out = String::new();
+    for line in w.iter().skip(first).take(6) {
+        out.push_str(&format!("          - {line}\n"));
+    }
+    for line in g.iter().skip(first).take(6) {
+        out.push_str(&format!("          + {line}\n"));
+    }
+    out
+}
+
+fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
+    println!();
+    println!(
+        "{:<24} {:<6} {:>7} {:>5} {:>8} {:>9} {:>9} {:>6}  leds (net run error online offline)",
+        "scenario", "result", "locked", "lost", "cycles", "fw bits", "tsdr bits", "max"
+    );
+    for (name, ok, outcome) in rows {
+        let Some(o) = outcome else {
+            println!("{name:<24} {:<6}", if *ok { "ok" } else { "FAILED" });
+            continue;
+        };
+        let f = &o.figures;
+        let baud = f.locked;
+        // The firmware's worst turnaround at the board's declared clock, in bit times.
+        let fw_bits = baud.map(|b| {
+            u64::from(f.worst_cycles) * u64::from(b.bits_per_second()) / u64::from(DECLARED_CLOCK_HZ)
+        });
+        let l = o.leds;
+        println!(
+            "{:<24} {:<6} {:>7} {:>5} {:>8} {:>9} {:>9} {:>6}  {:?} {:?} {:?} {:?} {:?}",
+            name,
+            if *ok { "ok" } else { "FAILED" },
+            baud.map_or("-".into(), |b| b.to_string()),
+            f.lost_before_lock.map_or("-".into(), |n| n.to_string()),
+            f.worst_cycles,
+            fw_bits.map_or("-".into(), |b| b.to_string()),
+            f.worst_tsdr_bits,
+            f.worst_tsdr_baud.map_or("-".into(), |b| b.default_max_tsdr_bits().to_string()),
+            l.net,
+            l.run,
+            l.error,
+            l.online,
+            l.offline,
+        );
+    }
+    println!(
+        "cycles: the worst firmware turnaround (message in to reply out), counted under QEMU's icount; \
+         fw bits: those cycles at the board's declared {} MHz, in bit times of the locked rate; \
+         tsdr bits: the worst request-to-response gap on the wire; max: max TSDR at that rate.",
+        DECLARED_CLOCK_HZ / 1_000_000
+    );
+}
+
+fn ensure_target() -> Result<()> {
+    let out = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .context("running rustup (the Rust toolchain installer)")?;
+    if String::from_utf8_lossy(&out.stdout).lines().any(|l| l.trim() == TARGET) {
+        return Ok(());
+    }
+    println!("installing the {TARGET} target: rustup target add {TARGET}");
+    let status = Command::new("rustup").args(["target", "add", TARGET]).status()?;
+    if !status.success() {
+        bail!("`rustup target add {TARGET}` failed");
+    }
+    Ok(())
+}
+
+fn find_in_path(program: &str) -> Option<PathBuf> {
+    std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|dir| dir.join(program))
+            .find(|p| p.is_file())
+    })
+}
+
+fn ensure_qemu() -> Result<PathBuf> {
+    if let Some(path) = find_in_path("qemu-system-arm") {
+        return Ok(path);
+    }
+    let uid = Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    if uid.as_deref().ok() != Some("0") {
+        bail!("qemu-system-arm is not installed; install it with `sudo apt-get install -y qemu-system-arm`");
+    }
+    println!("installing qemu-system-arm: apt-get install -y qemu-system-arm");
+    let apt = |args: &[&str]| -> Result<()> {
+        let status = Command::new("apt-get")
+            .args(args)
+            .env("DEBIAN_FRONTEND", "noninteractive")
+            .status()
+            .context("running apt-get")?;
+        if !status.success() {
+            bail!("`apt-get {}` failed", args.join(" "));
+        }
+        Ok(())
+    };
+    apt(&["update", "-q"])?;
+    apt(&["install", "-y", "-q", "qemu-system-arm"])?;
+    find_in_path("qemu-system-arm").ok_or_else(|| anyhow!("qemu-system-arm still not on PATH after apt-get"))
+}
+
+/// Builds one board's image in its own target directory; returns the ELF.
+fn build(image: &Image) -> Result<PathBuf> {
+    let firmware = project_root().join("firmware");
+    let target_dir = firmware.join("target").join(image.board);
+    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .current_dir(&firmware)
+        .args(["build", "--release", "--quiet"])
+        .args(image.features)
+        .arg("--target-dir")
+        .arg(&target_dir)
+        .status()
+        .context("running cargo for the firmware")?;
+    if !status.success() {
+        bail!("the {} firmware did not build", image.board);
+    }
+    Ok(target_dir.join(TARGET).join("release/dp-adapter"))
+}
+
+/// Flash (code, read-only data, initial data) and static RAM (data, bss) of an image.
+fn image_size(elf: &Path) -> Result<(u64, u64)> {
+    use object::{Object, ObjectSection};
+    let bytes = std::fs::read(elf)?;
+    let file = object::File::parse(&*bytes)?;
+    let size = |name: &str| file.section_by_name(name).map_or(0, |s| s.size());
+    let data = size(".data");
+    let flash = size(".vector_table") + size(".text") + size(".rodata") + data;
+    let ram = data + size(".bss") + size(".uninit");
+    Ok((flash, ram))
+}

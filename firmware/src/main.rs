@@ -14,10 +14,10 @@ mod board;
 
 use defmt::error;
 
-#[cfg(feature = "lm3s6965")]
-use defmt_semihosting as _;
 #[cfg(feature = "stm32f103")]
 use defmt_rtt as _;
+#[cfg(feature = "lm3s6965")]
+use defmt_semihosting as _;
 
 /// Bytes the link queue holds: two maximal frames.
 const LINK_QUEUE_LEN: usize = 2 * dp_link::MAX_FRAME_LEN;
@@ -90,12 +90,14 @@ macro_rules! adapter_app {
                 let (producer, consumer) = LINK_QUEUE.try_split().unwrap();
                 let (wake, woken) = make_channel!((), 1);
                 info!("boot: {}", board::NAME);
+                let mut link_tx = board::link_tx();
+                send(&mut link_tx, &FromAdapter::Ready);
                 link::spawn(woken).ok();
                 (
                     Shared {},
                     Local {
                         link_rx: board.link,
-                        link_tx: Some(board::link_tx()),
+                        link_tx: Some(link_tx),
                         producer,
                         consumer,
                         wake,
@@ -188,10 +190,14 @@ macro_rules! adapter_app {
                     cycles,
                     status,
                 };
+                send(tx, &reply);
+            }
+
+            fn send(tx: &mut board::Uart, message: &FromAdapter) {
                 let mut frame = [0u8; dp_link::MAX_FRAME_LEN];
-                match dp_link::encode(&reply, &mut frame) {
+                match dp_link::encode(message, &mut frame) {
                     Ok(bytes) => bytes.iter().for_each(|b| tx.write_byte(*b)),
-                    Err(_) => warn!("link: reply does not fit a frame"),
+                    Err(_) => warn!("link: message does not fit a frame"),
                 }
             }
         }
@@ -202,4 +208,3 @@ macro_rules! adapter_app {
 adapter_app!(UART0, GPIOA);
 #[cfg(feature = "stm32f103")]
 adapter_app!(USART1, EXTI0);
-

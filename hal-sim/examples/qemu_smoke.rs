@@ -6,11 +6,23 @@ use hal_sim::firmware::{Firmware, Qemu};
 fn main() -> std::io::Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let mut fw = Qemu::start(args[1].as_ref(), args[2].as_ref())?;
-    let boot = ToAdapter::Boot { seq: 1, now_us: 0, switch: 8, nv: None };
+    let boot = ToAdapter::Boot {
+        seq: 1,
+        now_us: 0,
+        switch: 8,
+        nv: None,
+    };
     println!("{:?}", fw.exchange(&boot)?);
-    let diag = [0x68, 0x05, 0x05, 0x68, 0x88, 0x82, 0x6D, 0x3C, 0x3E, 0xF1, 0x16];
+    let diag = [
+        0x68, 0x05, 0x05, 0x68, 0x88, 0x82, 0x6D, 0x3C, 0x3E, 0xF1, 0x16,
+    ];
     for seq in 2..6 {
-        let m = ToAdapter::Telegram { seq, now_us: 1000 * seq as u64, baud: 6, bytes: &diag };
+        let m = ToAdapter::Telegram {
+            seq,
+            now_us: 1000 * seq as u64,
+            baud: 6,
+            bytes: &diag,
+        };
         println!("{:?}", fw.exchange(&m)?);
     }
     Ok(())

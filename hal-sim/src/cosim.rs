@@ -272,7 +272,10 @@ impl<F: Firmware> CoSim<F> {
             switch: self.switch,
             nv: self.nv,
         };
-        self.event(format!("power-up: switch {:02}, storage {:?}", self.switch, self.nv));
+        self.event(format!(
+            "power-up: switch {:02}, storage {:?}",
+            self.switch, self.nv
+        ));
         let reply = self.firmware.exchange(&message)?;
         self.apply(&reply);
         Ok(())
@@ -307,7 +310,12 @@ impl<F: Firmware> CoSim<F> {
     /// A class 2 master's request (a commissioning tool), for services profirust does not
     /// offer (Set_Slave_Add): sent bit by bit after TSYN, the answer read back from the line
     /// within `slot_bits`. Replaces any running master.
-    pub fn tool_request(&mut self, setup: MasterSetup, request: &[u8], slot_bits: u64) -> io::Result<Option<Vec<u8>>> {
+    pub fn tool_request(
+        &mut self,
+        setup: MasterSetup,
+        request: &[u8],
+        slot_bits: u64,
+    ) -> io::Result<Option<Vec<u8>>> {
         self.event(format!("tool: request {:02X?}", request));
         let mut tool = Master::new(setup, self.now);
         tool.tool = true;
@@ -369,7 +377,11 @@ impl<F: Firmware> CoSim<F> {
     }
 
     /// Runs until `done` or tick `end`; returns whether `done` held.
-    pub fn run_until(&mut self, end: Tick, mut done: impl FnMut(&mut Self) -> bool) -> io::Result<bool> {
+    pub fn run_until(
+        &mut self,
+        end: Tick,
+        mut done: impl FnMut(&mut Self) -> bool,
+    ) -> io::Result<bool> {
         while self.now < end {
             self.step(end)?;
             if done(self) {
@@ -516,7 +528,11 @@ impl<F: Firmware> CoSim<F> {
         if !ours {
             return Ok(());
         }
-        let baud = self.adapter.baud_state().baud().map_or(0, |b| b.index() as u8);
+        let baud = self
+            .adapter
+            .baud_state()
+            .baud()
+            .map_or(0, |b| b.index() as u8);
         let message = ToAdapter::Telegram {
             seq: self.next_seq(),
             now_us: us_from_ticks(end),

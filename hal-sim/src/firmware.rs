@@ -108,7 +108,8 @@ impl Qemu {
                 "-semihosting-config",
                 "enable=on,target=native",
                 "-icount",
-                &std::env::var("HALSIM_ICOUNT").unwrap_or_else(|_| "shift=7,align=off,sleep=off".into()),
+                &std::env::var("HALSIM_ICOUNT")
+                    .unwrap_or_else(|_| "shift=7,align=off,sleep=off".into()),
                 "-kernel",
             ])
             .arg(elf)
@@ -153,7 +154,7 @@ impl Qemu {
                 sink.lock().unwrap().extend_from_slice(&buf[..n]);
             }
         });
-        Ok(Qemu {
+        let mut qemu = Qemu {
             qemu: qemu.to_path_buf(),
             elf: elf.to_path_buf(),
             earlier_runs: Vec::new(),
@@ -163,7 +164,9 @@ impl Qemu {
             pending: Vec::new(),
             defmt,
             stdout_reader: Some(stdout_reader),
-        })
+        };
+        qemu.wait_ready()?;
+        Ok(qemu)
     }
 
     /// The raw defmt bytes QEMU printed so far.
@@ -193,7 +196,23 @@ impl Qemu {
         self.earlier_runs.push(bytes);
     }
 
+    /// Waits for the firmware's Ready: its link is up.
+    fn wait_ready(&mut self) -> io::Result<()> {
+        match self.read_message()? {
+            None => Ok(()),
+            Some(reply) => Err(io::Error::other(format!("a reply before Ready: {reply:?}"))),
+        }
+    }
+
     fn read_reply(&mut self) -> io::Result<Reply> {
+        match self.read_message()? {
+            Some(reply) => Ok(reply),
+            None => Err(io::Error::other("Ready again: the firmware restarted")),
+        }
+    }
+
+    /// The next message: `None` for Ready, or a reply.
+    fn read_message(&mut self) -> io::Result<Option<Reply>> {
         let mut buf = [0u8; MAX_FRAME_LEN];
         loop {
             let mut rest: &[u8] = &self.pending;
@@ -210,27 +229,49 @@ impl Qemu {
                         consumed += before - r.len();
                         rest = r;
                     }
-                    Fed::Message(FromAdapter::Reply { seq, response, cycles, status }, r) => {
+                    Fed::Message(FromAdapter::Ready, r) => {
                         consumed += before - r.len();
-                        found = Some(Reply {
+                        found = Some(None);
+                        break;
+                    }
+                    Fed::Message(
+                        FromAdapter::Reply {
+                            seq,
+                            response,
+                            cycles,
+                            status,
+                        },
+                        r,
+                    ) => {
+                        consumed += before - r.len();
+                        found = Some(Some(Reply {
                             seq,
                             response: response.to_vec(),
                             cycles,
                             status,
-                        });
+                        }));
                         break;
                     }
                 }
             }
             self.pending.drain(..consumed);
-            if let Some(reply) = found {
-                return Ok(reply);
+            if let Some(message) = found {
+                return Ok(message);
             }
             let n = self.link.read(&mut buf).map_err(|e| {
-                io::Error::new(e.kind(), format!("no reply from the firmware: {e}"))
+                io::Error::new(
+                    e.kind(),
+                    format!(
+                        "no reply from the firmware within {} s ({e}); {} bytes of a frame had arrived",
+                        REPLY_TIMEOUT.as_secs(),
+                        self.pending.len()
+                    ),
+                )
             })?;
             if n == 0 {
-                return Err(io::Error::other("QEMU closed the link (the firmware exited)"));
+                return Err(io::Error::other(
+                    "QEMU closed the link (the firmware exited)",
+                ));
             }
             self.pending.extend_from_slice(&buf[..n]);
         }
@@ -243,7 +284,9 @@ impl Firmware for Qemu {
         let bytes = dp_link::encode(message, &mut frame)
             .map_err(|_| io::Error::other("message does not fit a frame"))?;
         self.link.write_all(bytes)?;
-        let reply = self.read_reply()?;
+        let reply = self
+            .read_reply()
+            .map_err(|e| io::Error::new(e.kind(), format!("message {:?}: {e}", message)))?;
         if reply.seq != message.seq() {
             return Err(io::Error::other(format!(
                 "reply {} to message {}",

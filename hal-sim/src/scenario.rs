@@ -50,7 +50,13 @@ pub fn all() -> Vec<Scenario> {
         })
         .collect();
     let more = [
-        ("rate-change", Kind::RateChange { from: Baud::B1500000, to: Baud::B93750 }),
+        (
+            "rate-change",
+            Kind::RateChange {
+                from: Baud::B1500000,
+                to: Baud::B93750,
+            },
+        ),
         ("watchdog-fail-safe", Kind::WatchdogFailSafe),
         ("prm-fault", Kind::PrmFault),
         ("cfg-fault", Kind::CfgFault),
@@ -111,7 +117,11 @@ fn cycles_for(baud: Baud) -> u64 {
 fn exchange<F: Firmware>(sim: &mut CoSim<F>, cycles: u64, limit_us: u64) -> io::Result<bool> {
     let start = sim.master.as_ref().map_or(0, |m| m.cycles);
     let end = sim.now + limit_us * 48;
-    sim.run_until(end, |s| s.master.as_ref().is_some_and(|m| m.cycles >= start + cycles))
+    sim.run_until(end, |s| {
+        s.master
+            .as_ref()
+            .is_some_and(|m| m.cycles >= start + cycles)
+    })
 }
 
 fn diag_flags<F: Firmware>(sim: &mut CoSim<F>) -> Option<DiagnosticFlags> {
@@ -139,8 +149,14 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
         Kind::Autodetect(baud) => {
             sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
             let ok = exchange(&mut sim, cycles_for(baud), limit_us(baud))?;
-            c.check(format!("{} data exchange cycles at {baud}", cycles_for(baud)), ok);
-            c.check(format!("transceiver locked at {baud}"), sim.figures.locked == Some(baud));
+            c.check(
+                format!("{} data exchange cycles at {baud}", cycles_for(baud)),
+                ok,
+            );
+            c.check(
+                format!("transceiver locked at {baud}"),
+                sim.figures.locked == Some(baud),
+            );
         }
         Kind::RateChange { from, to } => {
             sim.start_master(MasterSetup::new(from, SWITCH_ADDRESS));
@@ -149,7 +165,10 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             sim.start_master(MasterSetup::new(to, SWITCH_ADDRESS));
             let ok = exchange(&mut sim, cycles_for(to), limit_us(to))?;
             c.check(format!("data exchange again at {to}"), ok);
-            c.check(format!("transceiver followed to {to}"), sim.figures.locked == Some(to));
+            c.check(
+                format!("transceiver followed to {to}"),
+                sim.figures.locked == Some(to),
+            );
         }
         Kind::WatchdogFailSafe => {
             let baud = Baud::B1500000;
@@ -160,9 +179,18 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             sim.stop_master();
             // The master's watchdog is 200 ms; wait past it.
             sim.run_for_us(300_000)?;
-            c.check("watchdog expired: Wait_Prm", sim.status.state == SlaveState::WaitPrm);
-            c.check("outputs went to fail-safe", sim.status.fail_safes > fail_safes);
-            c.check("Net LED blinks, offline LED on", sim.status.leds.net == Led::Blink2Hz && sim.status.leds.offline == Led::On);
+            c.check(
+                "watchdog expired: Wait_Prm",
+                sim.status.state == SlaveState::WaitPrm,
+            );
+            c.check(
+                "outputs went to fail-safe",
+                sim.status.fail_safes > fail_safes,
+            );
+            c.check(
+                "Net LED blinks, offline LED on",
+                sim.status.leds.net == Led::Blink2Hz && sim.status.leds.offline == Led::On,
+            );
             sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
             let ok = exchange(&mut sim, 20, limit_us(baud))?;
             c.check("data exchange after the master returned", ok);
@@ -175,8 +203,14 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             sim.run_for_us(300_000)?;
             c.check("no data exchange", sim.status.state != SlaveState::DataExch);
             let flags = diag_flags(&mut sim);
-            c.check("the master reads Prm_Fault", flags.is_some_and(|f| f.contains(DiagnosticFlags::PARAMETER_FAULT)));
-            c.check("error LED blinks at 2 Hz", sim.status.leds.error == Led::Blink2Hz);
+            c.check(
+                "the master reads Prm_Fault",
+                flags.is_some_and(|f| f.contains(DiagnosticFlags::PARAMETER_FAULT)),
+            );
+            c.check(
+                "error LED blinks at 2 Hz",
+                sim.status.leds.error == Led::Blink2Hz,
+            );
         }
         Kind::CfgFault => {
             let baud = Baud::B1500000;
@@ -186,12 +220,21 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             sim.run_for_us(300_000)?;
             c.check("no data exchange", sim.status.state != SlaveState::DataExch);
             let flags = diag_flags(&mut sim);
-            c.check("the master reads Cfg_Fault", flags.is_some_and(|f| f.contains(DiagnosticFlags::CONFIGURATION_FAULT)));
-            c.check("error LED blinks at 1 Hz", sim.status.leds.error == Led::Blink1Hz);
+            c.check(
+                "the master reads Cfg_Fault",
+                flags.is_some_and(|f| f.contains(DiagnosticFlags::CONFIGURATION_FAULT)),
+            );
+            c.check(
+                "error LED blinks at 1 Hz",
+                sim.status.leds.error == Led::Blink1Hz,
+            );
         }
         Kind::SetSlaveAdd => {
             let baud = Baud::B1500000;
-            c.check("switch 0, empty storage: address 126", sim.status.address == 126);
+            c.check(
+                "switch 0, empty storage: address 126",
+                sim.status.address == 126,
+            );
             let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
             let payload = [42, hi, lo, 0];
             let request = Repr::Data(DataRepr {
@@ -199,7 +242,11 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
                 sa: 1,
                 dsap: Some(Sap::SET_SLAVE_ADD),
                 ssap: Some(Sap::MASTER_MS0),
-                fc: FrameControl::Request { fcb: true, fcv: false, function: RequestFunction::SrdLow },
+                fc: FrameControl::Request {
+                    fcb: true,
+                    fcv: false,
+                    function: RequestFunction::SrdLow,
+                },
                 payload: &payload,
             });
             let mut bytes = vec![0u8; request.buffer_len()];
@@ -207,8 +254,18 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             let mut tool = MasterSetup::new(baud, 126);
             tool.address = 1;
             let answer = sim.tool_request(tool, &bytes, 300)?;
-            c.check("Set_Slave_Add acknowledged (SC)", answer.as_deref() == Some(&[dp_consts::SC][..]));
-            c.check("storage holds address 42", sim.nv == Some(NvRecord { address: 42, no_add_chg: false }));
+            c.check(
+                "Set_Slave_Add acknowledged (SC)",
+                answer.as_deref() == Some(&[dp_consts::SC][..]),
+            );
+            c.check(
+                "storage holds address 42",
+                sim.nv
+                    == Some(NvRecord {
+                        address: 42,
+                        no_add_chg: false,
+                    }),
+            );
             sim.run_for_us(1_000)?;
             sim.power_cycle()?;
             c.check("after a power cycle: address 42", sim.status.address == 42);
@@ -219,14 +276,20 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
         Kind::FactoryReset => {
             let baud = Baud::B1500000;
             c.check("switch 99: address 126", sim.status.address == 126);
-            c.check("storage reset to the factory defaults", sim.nv == Some(adapter::FACTORY_DEFAULTS));
+            c.check(
+                "storage reset to the factory defaults",
+                sim.nv == Some(adapter::FACTORY_DEFAULTS),
+            );
             sim.start_master(MasterSetup::new(baud, 126));
             let ok = exchange(&mut sim, 20, limit_us(baud))?;
             c.check("data exchange at address 126", ok);
             sim.stop_master();
             sim.switch = 0;
             sim.power_cycle()?;
-            c.check("switch 0 after the reset: address 126 from storage", sim.status.address == 126);
+            c.check(
+                "switch 0 after the reset: address 126 from storage",
+                sim.status.address == 126,
+            );
         }
         Kind::LineNoise => {
             let baud = Baud::B1500000;
@@ -238,14 +301,24 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             // Glitches up to 2 bit times long, 2000 of them over 20 ms.
             sim.bus.faults.glitches(0x5EED, from, to, 2000, 64);
             sim.run_until(to, |_| false)?;
-            c.check("the noise broke telegrams", sim.figures.bad_telegrams > 0 || sim.master.as_ref().is_some_and(|m| m.phy.char_errors > 0));
+            c.check(
+                "the noise broke telegrams",
+                sim.figures.bad_telegrams > 0
+                    || sim.master.as_ref().is_some_and(|m| m.phy.char_errors > 0),
+            );
             let ok = exchange(&mut sim, 50, limit_us(baud))?;
             c.check("data exchange recovered", ok);
         }
     }
     let figures = sim.figures.clone();
-    c.check("no response later than max TSDR", figures.late_responses == 0);
-    c.check("the firmware never got a malformed telegram", sim.status.malformed_telegrams == 0);
+    c.check(
+        "no response later than max TSDR",
+        figures.late_responses == 0,
+    );
+    c.check(
+        "the firmware never got a malformed telegram",
+        sim.status.malformed_telegrams == 0,
+    );
     if let Some(m) = &sim.master {
         c.check("inputs answered the outputs", m.inputs_wrong == 0);
     }

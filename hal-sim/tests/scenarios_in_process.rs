@@ -6,7 +6,14 @@ use hal_sim::firmware::InProcess;
 use hal_sim::scenario;
 
 fn app() -> dp_slave::testing::EchoApp {
-    const PPOS: &[&[u8]] = &[&[0xF3, 0xF1], &[0xF3, 0xF5], &[0xF1], &[0xF5], &[0xF3, 0xF9], &[0xF9]];
+    const PPOS: &[&[u8]] = &[
+        &[0xF3, 0xF1],
+        &[0xF3, 0xF5],
+        &[0xF1],
+        &[0xF5],
+        &[0xF3, 0xF9],
+        &[0xF9],
+    ];
     dp_slave::testing::EchoApp {
         accepted_cfgs: PPOS,
         default_cfg: PPOS[0],
@@ -20,7 +27,10 @@ fn every_scenario_passes_in_process() {
     for s in scenario::all() {
         let (outcome, _) = scenario::run(&s, InProcess::new(app)).unwrap();
         if !outcome.passed() {
-            failed.push(format!("{}: {:#?}\n{:#?}\n{:?}", s.name, outcome.checks, outcome.events, outcome.figures));
+            failed.push(format!(
+                "{}: {:#?}\n{:#?}\n{:?}",
+                s.name, outcome.checks, outcome.events, outcome.figures
+            ));
         }
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));

@@ -166,7 +166,11 @@ fn run_one(
     } else {
         match std::fs::read_to_string(&path) {
             Ok(want) if want == text => {}
-            Ok(want) => problems.push(format!("differs from {}:\n{}", path.display(), diff(&want, &text))),
+            Ok(want) => problems.push(format!(
+                "differs from {}:\n{}",
+                path.display(),
+                diff(&want, &text)
+            )),
             Err(_) => problems.push(format!(
                 "no expected file {} (run `cargo xtask qemu-test --overwrite` and review it)",
                 path.display()
@@ -203,7 +207,11 @@ fn decode(table: &defmt_decoder::Table, bytes: &[u8]) -> Result<Vec<(String, Str
 fn diff(want: &str, got: &str) -> String {
     let w: Vec<&str> = want.lines().collect();
     let g: Vec<&str> = got.lines().collect();
-    let first = w.iter().zip(&g).position(|(a, b)| a != b).unwrap_or(w.len().min(g.len()));
+    let first = w
+        .iter()
+        .zip(&g)
+        .position(|(a, b)| a != b)
+        .unwrap_or(w.len().min(g.len()));
     let mut out = String::new();
     for line in w.iter().skip(first).take(6) {
         out.push_str(&format!("          - {line}\n"));
@@ -229,7 +237,8 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
         let baud = f.locked;
         // The firmware's worst turnaround at the board's declared clock, in bit times.
         let fw_bits = baud.map(|b| {
-            u64::from(f.worst_cycles) * u64::from(b.bits_per_second()) / u64::from(DECLARED_CLOCK_HZ)
+            u64::from(f.worst_cycles) * u64::from(b.bits_per_second())
+                / u64::from(DECLARED_CLOCK_HZ)
         });
         let l = o.leds;
         println!(
@@ -241,7 +250,8 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
             f.worst_cycles,
             fw_bits.map_or("-".into(), |b| b.to_string()),
             f.worst_tsdr_bits,
-            f.worst_tsdr_baud.map_or("-".into(), |b| b.default_max_tsdr_bits().to_string()),
+            f.worst_tsdr_baud
+                .map_or("-".into(), |b| b.default_max_tsdr_bits().to_string()),
             l.net,
             l.run,
             l.error,
@@ -262,11 +272,16 @@ fn ensure_target() -> Result<()> {
         .args(["target", "list", "--installed"])
         .output()
         .context("running rustup (the Rust toolchain installer)")?;
-    if String::from_utf8_lossy(&out.stdout).lines().any(|l| l.trim() == TARGET) {
+    if String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .any(|l| l.trim() == TARGET)
+    {
         return Ok(());
     }
     println!("installing the {TARGET} target: rustup target add {TARGET}");
-    let status = Command::new("rustup").args(["target", "add", TARGET]).status()?;
+    let status = Command::new("rustup")
+        .args(["target", "add", TARGET])
+        .status()?;
     if !status.success() {
         bail!("`rustup target add {TARGET}` failed");
     }
@@ -285,7 +300,10 @@ fn ensure_qemu() -> Result<PathBuf> {
     if let Some(path) = find_in_path("qemu-system-arm") {
         return Ok(path);
     }
-    let uid = Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    let uid = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
     if uid.as_deref().ok() != Some("0") {
         bail!("qemu-system-arm is not installed; install it with `sudo apt-get install -y qemu-system-arm`");
     }
@@ -303,7 +321,8 @@ fn ensure_qemu() -> Result<PathBuf> {
     };
     apt(&["update", "-q"])?;
     apt(&["install", "-y", "-q", "qemu-system-arm"])?;
-    find_in_path("qemu-system-arm").ok_or_else(|| anyhow!("qemu-system-arm still not on PATH after apt-get"))
+    find_in_path("qemu-system-arm")
+        .ok_or_else(|| anyhow!("qemu-system-arm still not on PATH after apt-get"))
 }
 
 /// Builds one board's image in its own target directory; returns the ELF.

@@ -276,14 +276,23 @@ mod tests {
             no_add_chg: false,
         });
         let a = addressing(17, stored);
-        assert_eq!((a.address, a.no_add_chg, a.source), (17, true, AddressSource::Switch));
+        assert_eq!(
+            (a.address, a.no_add_chg, a.source),
+            (17, true, AddressSource::Switch)
+        );
         let a = addressing(98, stored);
         assert_eq!(a.address, 98);
         let a = addressing(0, stored);
         assert_eq!((a.address, a.source), (42, AddressSource::Storage));
         let a = addressing(0, None);
         assert_eq!((a.address, a.source), (126, AddressSource::Default));
-        let a = addressing(0, Some(NvRecord { address: 0, no_add_chg: false }));
+        let a = addressing(
+            0,
+            Some(NvRecord {
+                address: 0,
+                no_add_chg: false,
+            }),
+        );
         assert_eq!(a.source, AddressSource::Default);
         let a = addressing(99, stored);
         assert_eq!(
@@ -314,7 +323,13 @@ mod tests {
         let (response, status) = adapter.on_message(&telegram(&t));
         assert_eq!(response, [0xE5]);
         assert_eq!(status.address, 42);
-        assert_eq!(status.nv_write, Some(NvRecord { address: 42, no_add_chg: false }));
+        assert_eq!(
+            status.nv_write,
+            Some(NvRecord {
+                address: 42,
+                no_add_chg: false
+            })
+        );
         assert_eq!(adapter.status().nv_write, None);
     }
 
@@ -335,6 +350,9 @@ mod tests {
     fn leds_before_data_exchange() {
         let mut adapter = Adapter::boot(8, None, EchoApp::default());
         let leds = adapter.status().leds;
-        assert_eq!((leds.net, leds.online, leds.offline, leds.error), (Led::Off, Led::Off, Led::On, Led::Off));
+        assert_eq!(
+            (leds.net, leds.online, leds.offline, leds.error),
+            (Led::Off, Led::Off, Led::On, Led::Off)
+        );
     }
 }

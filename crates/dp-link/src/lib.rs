@@ -68,6 +68,9 @@ impl ToAdapter<'_> {
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FromAdapter<'a> {
+    /// The MCU's link is up: sent once after reset, before which the transceiver sends nothing
+    /// (bytes that reach a UART before it is configured are lost).
+    Ready,
     Reply {
         seq: u32,
         /// The response telegram, or empty for none.
@@ -247,7 +250,9 @@ mod tests {
 
     #[test]
     fn frames_round_trip_in_a_stream() {
-        let telegram = [0x68, 0x05, 0x05, 0x68, 0x88, 0x81, 0x6D, 0x3C, 0x3E, 0xF0, 0x16];
+        let telegram = [
+            0x68, 0x05, 0x05, 0x68, 0x88, 0x81, 0x6D, 0x3C, 0x3E, 0xF0, 0x16,
+        ];
         let messages = [
             ToAdapter::Boot {
                 seq: 0,
@@ -307,11 +312,16 @@ mod tests {
     #[test]
     fn garbage_between_frames_is_dropped_and_the_next_frame_decodes() {
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(&ToAdapter::Tick { seq: 5, now_us: 6 }, &mut buf).unwrap().to_vec();
+        let frame = encode(&ToAdapter::Tick { seq: 5, now_us: 6 }, &mut buf)
+            .unwrap()
+            .to_vec();
         let mut stream = vec![0xFF, 0x13, 0x00];
         stream.extend_from_slice(&frame);
         let (got, dropped) = decode_all!(ToAdapter, &stream);
-        assert_eq!(got, [format!("{:?}", ToAdapter::Tick { seq: 5, now_us: 6 })]);
+        assert_eq!(
+            got,
+            [format!("{:?}", ToAdapter::Tick { seq: 5, now_us: 6 })]
+        );
         assert_eq!(dropped, 1);
     }
 

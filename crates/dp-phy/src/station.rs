@@ -53,10 +53,7 @@ impl StationRx {
         let (ch, rq) = self
             .uart
             .next(now, f.level, f.fell, f.fell || f.rose, &self.q.rx);
-        self.q = StationRxQ {
-            filter: fq,
-            rx: rq,
-        };
+        self.q = StationRxQ { filter: fq, rx: rq };
         ch
     }
 

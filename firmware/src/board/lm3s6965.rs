@@ -87,8 +87,6 @@ pub fn init(core: cortex_m::Peripherals, _device: pac::Peripherals) -> Board {
     link.write(LCRH, LCRH_WLEN8_FEN);
     link.write(IM, INT_RX_RT);
     link.write(CTL, CTL_UARTEN_TXE_RXE);
-    // The stored handle is not needed again: SYST::get_current reads the register directly.
-    core::mem::forget(syst);
     Board { link }
 }
 

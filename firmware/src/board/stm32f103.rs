@@ -85,22 +85,31 @@ pub fn init(mut core: cortex_m::Peripherals, device: pac::Peripherals) -> Board 
     // SAFETY (all `bits` writes below): the values are the documented bit patterns named above.
     rcc.cr().modify(|r, w| unsafe { w.bits(r.bits() | HSEON) });
     while rcc.cr().read().bits() & HSERDY == 0 {}
-    device.FLASH.acr().write(|w| unsafe { w.bits(ACR_LATENCY_2_PRFTBE) });
+    device
+        .FLASH
+        .acr()
+        .write(|w| unsafe { w.bits(ACR_LATENCY_2_PRFTBE) });
     rcc.cfgr()
         .write(|w| unsafe { w.bits(CFGR_PLLSRC_HSE | CFGR_PLLMUL_9 | CFGR_PPRE1_DIV2) });
     rcc.cr().modify(|r, w| unsafe { w.bits(r.bits() | PLLON) });
     while rcc.cr().read().bits() & PLLRDY == 0 {}
-    rcc.cfgr().modify(|r, w| unsafe { w.bits(r.bits() | CFGR_SW_PLL) });
+    rcc.cfgr()
+        .modify(|r, w| unsafe { w.bits(r.bits() | CFGR_SW_PLL) });
     while rcc.cfgr().read().bits() & CFGR_SWS_MASK != CFGR_SWS_PLL {}
 
-    rcc.apb2enr().modify(|r, w| unsafe { w.bits(r.bits() | IOPAEN | USART1EN) });
+    rcc.apb2enr()
+        .modify(|r, w| unsafe { w.bits(r.bits() | IOPAEN | USART1EN) });
     device
         .GPIOA
         .crh()
         .modify(|r, w| unsafe { w.bits((r.bits() & !CRH_PIN9_MASK) | CRH_PIN9_AF_PP_50MHZ) });
     let usart = &device.USART1;
-    usart.brr().write(|w| unsafe { w.bits((SYSCLK_HZ / LINK_BAUD) as u16) });
-    usart.cr1().write(|w| unsafe { w.bits(CR1_UE_TE_RE_RXNEIE) });
+    usart
+        .brr()
+        .write(|w| unsafe { w.bits((SYSCLK_HZ / LINK_BAUD) as u16) });
+    usart
+        .cr1()
+        .write(|w| unsafe { w.bits(CR1_UE_TE_RE_RXNEIE) });
 
     core.DCB.enable_trace();
     core.DWT.enable_cycle_counter();

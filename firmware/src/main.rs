@@ -90,6 +90,7 @@ macro_rules! adapter_app {
                 let (producer, consumer) = LINK_QUEUE.try_split().unwrap();
                 let (wake, woken) = make_channel!((), 1);
                 info!("boot: {}", board::NAME);
+                info!("cycle counter: 1000 nops count {=u32} cycles", board::calibrate());
                 let mut link_tx = board::link_tx();
                 send(&mut link_tx, &FromAdapter::Ready);
                 link::spawn(woken).ok();

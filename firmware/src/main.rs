@@ -22,26 +22,8 @@ use defmt_semihosting as _;
 /// Bytes the link queue holds: two maximal frames.
 const LINK_QUEUE_LEN: usize = 2 * dp_link::MAX_FRAME_LEN;
 
-/// The drive application until the PROFIdrive crate lands: dp-slave's loopback application,
-/// accepting the six PPO configurations.
+/// The drive application until the PROFIdrive crate lands (see `adapter::loopback_app`).
 type DriveApp = dp_slave::testing::EchoApp;
-
-const PPO_CONFIGURATIONS: &[&[u8]] = &[
-    &[0xF3, 0xF1],
-    &[0xF3, 0xF5],
-    &[0xF1],
-    &[0xF5],
-    &[0xF3, 0xF9],
-    &[0xF9],
-];
-
-fn drive_app() -> DriveApp {
-    DriveApp {
-        accepted_cfgs: PPO_CONFIGURATIONS,
-        default_cfg: PPO_CONFIGURATIONS[0],
-        ..DriveApp::default()
-    }
-}
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
@@ -170,7 +152,7 @@ macro_rules! adapter_app {
             fn handle(slot: &mut Option<Adapter<crate::DriveApp>>, tx: &mut board::Uart, message: &ToAdapter) {
                 let start = FRAME_END.load(Ordering::Relaxed);
                 if let ToAdapter::Boot { switch, nv, .. } = *message {
-                    let adapter = Adapter::boot(switch, nv, crate::drive_app());
+                    let adapter = Adapter::boot(switch, nv, adapter::loopback_app());
                     let a = adapter.addressing();
                     info!("adapter: switch {=u8}, address {=u8} from {}", switch, a.address, a.source);
                     *slot = Some(adapter);

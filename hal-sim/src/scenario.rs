@@ -130,6 +130,30 @@ fn diag_flags<F: Firmware>(sim: &mut CoSim<F>) -> Option<DiagnosticFlags> {
     peripheral.last_diagnostics().map(|d| d.flags)
 }
 
+/// A master whose parameters or configuration the slave refuses: no data exchange, the
+/// master reads the fault in the diagnosis, the error LED blinks at its rate.
+fn refused<F: Firmware>(
+    sim: &mut CoSim<F>,
+    c: &mut Checks,
+    setup: MasterSetup,
+    (fault, flag): (&str, DiagnosticFlags),
+    error_led: Led,
+) -> io::Result<()> {
+    sim.start_master(setup);
+    sim.run_for_us(300_000)?;
+    c.check("no data exchange", sim.status.state != SlaveState::DataExch);
+    let flags = diag_flags(sim);
+    c.check(
+        format!("the master reads {fault}"),
+        flags.is_some_and(|f| f.contains(flag)),
+    );
+    c.check(
+        format!("error LED {error_led:?}"),
+        sim.status.leds.error == error_led,
+    );
+    Ok(())
+}
+
 /// Runs one scenario on a freshly powered board.
 pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome, F)> {
     let (switch, nv) = match scenario.kind {
@@ -196,38 +220,26 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             c.check("data exchange after the master returned", ok);
         }
         Kind::PrmFault => {
-            let baud = Baud::B1500000;
-            let mut setup = MasterSetup::new(baud, SWITCH_ADDRESS);
+            let mut setup = MasterSetup::new(Baud::B1500000, SWITCH_ADDRESS);
             setup.ident_number ^= 0x0001;
-            sim.start_master(setup);
-            sim.run_for_us(300_000)?;
-            c.check("no data exchange", sim.status.state != SlaveState::DataExch);
-            let flags = diag_flags(&mut sim);
-            c.check(
-                "the master reads Prm_Fault",
-                flags.is_some_and(|f| f.contains(DiagnosticFlags::PARAMETER_FAULT)),
-            );
-            c.check(
-                "error LED blinks at 2 Hz",
-                sim.status.leds.error == Led::Blink2Hz,
-            );
+            refused(
+                &mut sim,
+                &mut c,
+                setup,
+                ("Prm_Fault", DiagnosticFlags::PARAMETER_FAULT),
+                Led::Blink2Hz,
+            )?;
         }
         Kind::CfgFault => {
-            let baud = Baud::B1500000;
-            let mut setup = MasterSetup::new(baud, SWITCH_ADDRESS);
+            let mut setup = MasterSetup::new(Baud::B1500000, SWITCH_ADDRESS);
             setup.config = vec![0xF5, 0xF1];
-            sim.start_master(setup);
-            sim.run_for_us(300_000)?;
-            c.check("no data exchange", sim.status.state != SlaveState::DataExch);
-            let flags = diag_flags(&mut sim);
-            c.check(
-                "the master reads Cfg_Fault",
-                flags.is_some_and(|f| f.contains(DiagnosticFlags::CONFIGURATION_FAULT)),
-            );
-            c.check(
-                "error LED blinks at 1 Hz",
-                sim.status.leds.error == Led::Blink1Hz,
-            );
+            refused(
+                &mut sim,
+                &mut c,
+                setup,
+                ("Cfg_Fault", DiagnosticFlags::CONFIGURATION_FAULT),
+                Led::Blink1Hz,
+            )?;
         }
         Kind::SetSlaveAdd => {
             let baud = Baud::B1500000;

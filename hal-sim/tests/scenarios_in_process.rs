@@ -5,27 +5,11 @@
 use hal_sim::firmware::InProcess;
 use hal_sim::scenario;
 
-fn app() -> dp_slave::testing::EchoApp {
-    const PPOS: &[&[u8]] = &[
-        &[0xF3, 0xF1],
-        &[0xF3, 0xF5],
-        &[0xF1],
-        &[0xF5],
-        &[0xF3, 0xF9],
-        &[0xF9],
-    ];
-    dp_slave::testing::EchoApp {
-        accepted_cfgs: PPOS,
-        default_cfg: PPOS[0],
-        ..Default::default()
-    }
-}
-
 #[test]
 fn every_scenario_passes_in_process() {
     let mut failed = Vec::new();
     for s in scenario::all() {
-        let (outcome, _) = scenario::run(&s, InProcess::new(app)).unwrap();
+        let (outcome, _) = scenario::run(&s, InProcess::new(adapter::loopback_app)).unwrap();
         if !outcome.passed() {
             failed.push(format!(
                 "{}: {:#?}\n{:#?}\n{:?}",

@@ -23,6 +23,27 @@ pub const FACTORY_DEFAULTS: NvRecord = NvRecord {
     no_add_chg: false,
 };
 
+/// The six PPO configurations of both manuals: PPO1 F3 F1, PPO2 F3 F5, PPO3 F1, PPO4 F5,
+/// PPO5 F3 F9, PPO6 F9.
+pub const PPO_CONFIGURATIONS: &[&[u8]] = &[
+    &[0xF3, 0xF1],
+    &[0xF3, 0xF5],
+    &[0xF1],
+    &[0xF5],
+    &[0xF3, 0xF9],
+    &[0xF9],
+];
+
+/// The drive application until the PROFIdrive crate lands: dp-slave's loopback application
+/// (inputs answer outputs with their complement), accepting the six PPO configurations.
+pub fn loopback_app() -> dp_slave::testing::EchoApp {
+    dp_slave::testing::EchoApp {
+        accepted_cfgs: PPO_CONFIGURATIONS,
+        default_cfg: PPO_CONFIGURATIONS[0],
+        ..dp_slave::testing::EchoApp::default()
+    }
+}
+
 /// The switch position that restores the factory defaults.
 pub const SWITCH_FACTORY_RESET: u8 = 99;
 /// The highest address the switch can set.

@@ -108,19 +108,3 @@ pub fn exit_failure() -> ! {
     #[allow(clippy::empty_loop)]
     loop {}
 }
-
-/// Cycles counted over 1000 `nop`s: the figure the turnaround is counted in, checked once at
-/// boot (1000 where the counter counts instructions, as under QEMU's icount).
-pub fn calibrate() -> u32 {
-    let start = timestamp();
-    // SAFETY: a block of `nop`s touches no memory and no registers.
-    unsafe {
-        core::arch::asm!(
-            ".rept 1000",
-            "nop",
-            ".endr",
-            options(nomem, nostack, preserves_flags)
-        )
-    };
-    cycles_since(start)
-}

@@ -13,3 +13,20 @@ pub use lm3s6965::*;
 mod stm32f103;
 #[cfg(feature = "stm32f103")]
 pub use stm32f103::*;
+
+/// Cycles counted over 1000 `nop`s: the unit the turnaround is counted in, checked once at
+/// boot (1000, give or take the read itself, where the counter counts instructions, as under
+/// QEMU's icount).
+pub fn calibrate() -> u32 {
+    let start = timestamp();
+    // SAFETY: a block of `nop`s touches no memory and no registers.
+    unsafe {
+        core::arch::asm!(
+            ".rept 1000",
+            "nop",
+            ".endr",
+            options(nomem, nostack, preserves_flags)
+        )
+    };
+    cycles_since(start)
+}

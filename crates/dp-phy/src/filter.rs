@@ -64,6 +64,32 @@ pub fn is_quiet(line: bool, q: &FilterQ) -> bool {
     q.sync == line && q.out == line && q.count == 0
 }
 
+/// Ticks a constant `line` lets pass before the output changes, and the level the output holds
+/// meanwhile: forever when the filter has settled on `line`; while it counts towards a change,
+/// the clocks left to count (the output flips on the clock after); none while the synchroniser
+/// has not yet taken `line`.
+pub fn quiet_for(line: bool, len: u8, q: &FilterQ) -> (u64, bool) {
+    if q.sync != line {
+        (0, q.out)
+    } else if q.out == line {
+        if q.count == 0 {
+            (u64::MAX, q.out)
+        } else {
+            (0, q.out)
+        }
+    } else {
+        (u64::from(len.saturating_sub(q.count)), q.out)
+    }
+}
+
+/// Lets `ticks` pass that [`quiet_for`] allowed for this `line`.
+pub fn skip(line: bool, ticks: u64, q: &mut FilterQ) {
+    if q.sync == line && q.out != line {
+        // Bounded by quiet_for: count stays at most len, which fits a u8.
+        q.count = (u64::from(q.count) + ticks) as u8;
+    }
+}
+
 /// The filter length for a bit of `clocks_per_bit` clocks: a sixteenth of a bit, at least 1.
 pub fn len_for(clocks_per_bit: u64) -> u8 {
     (clocks_per_bit / 16).clamp(1, MAX_FILTER_LEN as u64) as u8

@@ -392,14 +392,17 @@ impl Transceiver {
 
     /// Ticks that a constant `line` lets pass with nothing but counters moving.
     pub fn quiet_for(&self, line: bool) -> Tick {
-        if !filter::is_quiet(line, &self.filter_q) {
+        // While the glitch filter counts towards an edge, the blocks behind it see its old
+        // output: a constant level, as on a quiet line.
+        let (filter_quiet, level) = filter::quiet_for(line, self.filter_len, &self.filter_q);
+        if filter_quiet == 0 {
             return 0;
         }
         let now = self.now;
         let mut quiet = match &self.rx {
             None => self.search.quiet_for(now, &self.search_q),
-            Some(rx) if self.rx_q.active => rx.quiet_for(line, &self.rx_q),
-            Some(_) if self.delimiter.inside() && line => {
+            Some(rx) if self.rx_q.active => rx.quiet_for_votes(level, &self.rx_q),
+            Some(_) if self.delimiter.inside() && level => {
                 (self.quiet_since + self.delimiter.gap_clocks + 1).saturating_sub(now)
             }
             Some(_) => Tick::MAX,
@@ -413,19 +416,21 @@ impl Transceiver {
         if let Some(tx) = &self.tx {
             quiet = quiet.min(tx.quiet_for());
         }
-        quiet
+        quiet.min(filter_quiet)
     }
 
     /// Let `ticks` pass that [`quiet_for`](Self::quiet_for) allowed for this `line`.
     fn skip(&mut self, ticks: Tick, line: bool) {
-        self.now += ticks;
+        let level = self.filter_q.out;
+        filter::skip(line, ticks, &mut self.filter_q);
         if let Some(rx) = &self.rx {
-            rx.skip(ticks, &mut self.rx_q);
+            rx.skip_votes(ticks, level, self.now, &mut self.rx_q);
         }
+        self.now += ticks;
         if let Some(tx) = &mut self.tx {
             tx.skip(ticks);
         }
-        if !line && !self.rx_q.active {
+        if !level && !self.rx_q.active {
             self.quiet_since = self.now;
         }
     }

@@ -261,6 +261,41 @@ impl UartRx {
             q.ph += ticks * self.timing.inc;
         }
     }
+
+    /// Ticks a constant `level` lets pass before this receiver can deliver a character or
+    /// abort one: every vote and bit boundary up to the start of the stop bit, which
+    /// [`skip_votes`](Self::skip_votes) takes arithmetically. At the start bit with the line
+    /// high (a false start may follow) and inside the stop bit, as [`quiet_for`](Self::quiet_for).
+    pub fn quiet_for_votes(&self, level: bool, q: &RxQ) -> Tick {
+        if !q.active {
+            return Tick::MAX;
+        }
+        if (q.bit == 0 && level) || q.bit >= 10 {
+            return self.quiet_for(level, q);
+        }
+        // The tick on which the phase wraps into bit 10.
+        let to_stop_bit = (10 - u64::from(q.bit)) * self.timing.modulo - q.ph;
+        to_stop_bit.div_ceil(self.timing.inc)
+    }
+
+    /// Let `ticks` pass at constant `level` that [`quiet_for_votes`](Self::quiet_for_votes)
+    /// allowed, from tick `now`: the votes and bit boundaries on the way are those `next` would
+    /// take, one call per event instead of one per clock.
+    pub fn skip_votes(&self, ticks: Tick, level: bool, now: Tick, q: &mut RxQ) {
+        let mut done = 0;
+        while done < ticks {
+            let quiet = self.quiet_for(level, q).min(ticks - done);
+            self.skip(quiet, q);
+            done += quiet;
+            if done == ticks {
+                break;
+            }
+            let (out, d) = self.next(now + done, level, false, false, q);
+            debug_assert!(out.is_none(), "skip_votes past a character's end");
+            *q = d;
+            done += 1;
+        }
+    }
 }
 
 /// Transmitter registers.
@@ -349,20 +384,7 @@ impl UartTx {
     /// The level this transmitter puts on the line, or `None` with its driver disabled.
     #[inline(always)]
     pub fn drive(&self) -> Option<bool> {
-        if !self.q.sending {
-            return None;
-        }
-        let byte = self.buf[self.q.index as usize];
-        let level = match self.fault(self.q.index) {
-            None => char_bits(byte)[self.q.bit as usize],
-            Some(CharFault::Drop) => return None,
-            Some(CharFault::FlipBit(n)) => {
-                let mut bits = char_bits(byte);
-                bits[1 + n as usize % 8] ^= true;
-                bits[self.q.bit as usize]
-            }
-        };
-        Some(level)
+        self.drive_at(&self.q)
     }
 
     /// One clock.
@@ -377,29 +399,79 @@ impl UartTx {
             return;
         }
         self.q.ph = p - self.timing.modulo;
-        if self.q.idle_bits > 0 {
-            self.q.idle_bits -= 1;
-            self.q.sending = self.q.idle_bits == 0 && !self.buf.is_empty();
-        } else if self.q.bit < 10 {
-            self.q.bit += 1;
-        } else {
-            self.q.bit = 0;
-            self.q.index += 1;
-            self.q.sending = (self.q.index as usize) < self.buf.len();
+        self.q = self.after_boundary(&self.q);
+    }
+
+    /// The output at position `q` (as [`drive`](Self::drive) reads it).
+    #[inline(always)]
+    fn drive_at(&self, q: &TxQ) -> Option<bool> {
+        if !q.sending {
+            return None;
+        }
+        let byte = self.buf[q.index as usize];
+        match self.fault(q.index) {
+            None => Some(char_bits(byte)[q.bit as usize]),
+            Some(CharFault::Drop) => None,
+            Some(CharFault::FlipBit(n)) => {
+                let mut bits = char_bits(byte);
+                bits[1 + n as usize % 8] ^= true;
+                Some(bits[q.bit as usize])
+            }
         }
     }
 
-    /// Ticks before this transmitter's output can next change.
+    /// The registers after one bit boundary.
+    fn after_boundary(&self, q: &TxQ) -> TxQ {
+        let mut d = *q;
+        if d.idle_bits > 0 {
+            d.idle_bits -= 1;
+            d.sending = d.idle_bits == 0 && !self.buf.is_empty();
+        } else if d.bit < 10 {
+            d.bit += 1;
+        } else {
+            d.bit = 0;
+            d.index += 1;
+            d.sending = (d.index as usize) < self.buf.len();
+        }
+        d
+    }
+
+    /// Ticks before this transmitter's output can next change: bit boundaries that keep the
+    /// level (a run of equal bits, idle bits) are passed over, up to a bounded look-ahead.
     pub fn quiet_for(&self) -> Tick {
         if !self.busy() {
             return Tick::MAX;
         }
-        self.timing.ticks_until(self.q.ph, self.timing.modulo) - 1
+        const LOOK_AHEAD_BITS: u32 = 24;
+        let level = self.drive_at(&self.q);
+        let mut q = self.q;
+        // Phase still to accumulate to reach each next boundary.
+        let mut phase = self.timing.modulo - q.ph;
+        for _ in 0..LOOK_AHEAD_BITS {
+            q = self.after_boundary(&q);
+            let busy = q.sending || q.idle_bits > 0;
+            if !busy || self.drive_at(&q) != level {
+                break;
+            }
+            phase += self.timing.modulo;
+        }
+        // The boundary tick itself is left to `tick`.
+        phase.div_ceil(self.timing.inc) - 1
     }
 
+    /// Let `ticks` pass that [`quiet_for`](Self::quiet_for) allowed, crossing bit boundaries
+    /// as `tick` would.
     pub fn skip(&mut self, ticks: Tick) {
-        if self.busy() {
-            self.q.ph += ticks * self.timing.inc;
+        let mut left = ticks;
+        while left > 0 && self.busy() {
+            let to_boundary = self.timing.ticks_until(self.q.ph, self.timing.modulo);
+            if left < to_boundary {
+                self.q.ph += left * self.timing.inc;
+                return;
+            }
+            self.q.ph = self.q.ph + to_boundary * self.timing.inc - self.timing.modulo;
+            self.q = self.after_boundary(&self.q);
+            left -= to_boundary;
         }
     }
 

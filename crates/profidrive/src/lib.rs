@@ -1,0 +1,26 @@
+//! The drive application of the two manuals behind the DP slave: seed 000 (the IOA-B103
+//! card, "vendor profile") and seed 004 (ABB's RPBA-01, "PROFIdrive profile").
+//!
+//! - [`ppo`]: PPO types 1-6 and the configurations that select them.
+//! - [`prm`]: the User_Prm_Data layout: fail-safe, control-zero and operation mode, cut-off,
+//!   fail-safe values, the PZD mapping.
+//! - [`codes`]: the vendor's function codes (F0.29 is 0xF029).
+//! - [`pkw`]: the vendor parameter channel.
+//! - [`words`]: the vendor control and status words.
+//! - [`drive`]: the drive as the application sees it, and the error and fault codes.
+//! - [`app`]: [`ProfidriveApp`], dp-slave's `Application`.
+//!
+//! no_std, no allocation, no clock: time comes in as `dp_slave::Instant`.
+#![cfg_attr(not(test), no_std)]
+#![deny(unsafe_code)]
+
+pub mod app;
+pub mod codes;
+pub mod drive;
+pub mod pkw;
+pub mod ppo;
+pub mod prm;
+pub mod testing;
+pub mod words;
+
+pub use app::ProfidriveApp;

@@ -1,0 +1,261 @@
+//! The vendor profile's parameter channel (seed 000, "PKW交互格式" and its frame examples).
+//!
+//! ```text
+//! byte   0          1      2      3 4 5      6      7
+//!        ID<<4      FID_H  FID_L  reserved   VAL_H  VAL_L
+//! ```
+//! Task IDs (master to slave): 0 none, 1 read, 2 write. Reply IDs: 0 none, 1 value (to a read
+//! and to a write), 7 refused with the error in VAL. The manual's frame examples, decoded this
+//! way, agree byte for byte (tests below); its typesetting scatters the D1.00 example over two
+//! lines, read here as `10 D1 00 00 00 00 00 00`.
+//!
+//! [`PkwServer`] executes a request once: the same request repeated keeps its answer, and only
+//! a changed request starts a new one. A write of the value the drive already holds does not
+//! write (the drive's non-volatile memory wears).
+
+use crate::codes::{CodeKind, FunctionCode};
+use crate::drive::{Drive, DriveError};
+
+pub const PKW_BYTES: usize = 8;
+
+/// The task a request asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Task {
+    None,
+    Read,
+    Write,
+    Unknown(u8),
+}
+
+/// A decoded request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Request {
+    pub task: Task,
+    pub code: FunctionCode,
+    pub value: u16,
+}
+
+impl Request {
+    pub fn decode(bytes: &[u8; PKW_BYTES]) -> Request {
+        let task = match bytes[0] >> 4 {
+            0 => Task::None,
+            1 => Task::Read,
+            2 => Task::Write,
+            other => Task::Unknown(other),
+        };
+        Request {
+            task,
+            code: FunctionCode(u16::from_be_bytes([bytes[1], bytes[2]])),
+            value: u16::from_be_bytes([bytes[6], bytes[7]]),
+        }
+    }
+
+    pub fn encode(&self) -> [u8; PKW_BYTES] {
+        let id = match self.task {
+            Task::None => 0,
+            Task::Read => 1,
+            Task::Write => 2,
+            Task::Unknown(id) => id & 0x0F,
+        };
+        frame(id, self.code, self.value)
+    }
+}
+
+/// A reply: ID 0 (nothing), 1 (the value) or 7 (refused, the error in the value).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Reply {
+    None,
+    Value { code: FunctionCode, value: u16 },
+    Refused { code: FunctionCode, error: DriveError },
+}
+
+pub const REPLY_NONE: u8 = 0;
+pub const REPLY_VALUE: u8 = 1;
+pub const REPLY_REFUSED: u8 = 7;
+
+fn frame(id: u8, code: FunctionCode, value: u16) -> [u8; PKW_BYTES] {
+    let [fid_h, fid_l] = code.0.to_be_bytes();
+    let [val_h, val_l] = value.to_be_bytes();
+    [id << 4, fid_h, fid_l, 0, 0, 0, val_h, val_l]
+}
+
+impl Reply {
+    pub fn encode(&self) -> [u8; PKW_BYTES] {
+        match *self {
+            Reply::None => [0; PKW_BYTES],
+            Reply::Value { code, value } => frame(REPLY_VALUE, code, value),
+            Reply::Refused { code, error } => frame(REPLY_REFUSED, code, u16::from(error.code())),
+        }
+    }
+}
+
+/// Executes one request against the drive.
+pub fn execute(drive: &mut impl Drive, request: &Request) -> Reply {
+    let code = request.code;
+    let refused = |error| Reply::Refused { code, error };
+    match request.task {
+        Task::None => Reply::None,
+        Task::Unknown(_) => refused(DriveError::IllegalOperation),
+        Task::Read => match code.kind() {
+            None => refused(DriveError::IllegalAddress),
+            Some(_) => match drive.read(code) {
+                Ok(value) => Reply::Value { code, value },
+                Err(e) => refused(e),
+            },
+        },
+        Task::Write => match code.kind() {
+            None => refused(DriveError::IllegalAddress),
+            Some(CodeKind::Status | CodeKind::FaultRecord) => refused(DriveError::AccessRestricted),
+            Some(CodeKind::Application) => {
+                let unchanged = drive.read(code).is_ok_and(|v| v == request.value);
+                let written = if unchanged {
+                    Ok(())
+                } else {
+                    drive.write(code, request.value, true)
+                };
+                match written {
+                    Ok(()) => Reply::Value {
+                        code,
+                        value: request.value,
+                    },
+                    Err(e) => refused(e),
+                }
+            }
+        },
+    }
+}
+
+/// The parameter channel over data exchange cycles.
+#[derive(Clone, Debug, Default)]
+pub struct PkwServer {
+    /// The request the current reply answers.
+    answered: Option<[u8; PKW_BYTES]>,
+    /// A request received and not yet executed.
+    pending: Option<[u8; PKW_BYTES]>,
+    reply: [u8; PKW_BYTES],
+}
+
+impl PkwServer {
+    /// A request as it arrived in the outputs.
+    pub fn received(&mut self, bytes: [u8; PKW_BYTES]) {
+        if self.answered != Some(bytes) {
+            self.pending = Some(bytes);
+        }
+    }
+
+    /// Executes a pending request, if any.
+    pub fn service(&mut self, drive: &mut impl Drive) {
+        if let Some(bytes) = self.pending.take() {
+            self.reply = execute(drive, &Request::decode(&bytes)).encode();
+            self.answered = Some(bytes);
+        }
+    }
+
+    /// The reply to put into the inputs.
+    pub fn reply(&self) -> [u8; PKW_BYTES] {
+        self.reply
+    }
+
+    /// Forgets everything: a new configuration starts afresh.
+    pub fn reset(&mut self) {
+        *self = PkwServer::default();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::MockDrive;
+
+    fn run(drive: &mut MockDrive, request: [u8; 8]) -> [u8; 8] {
+        execute(drive, &Request::decode(&request)).encode()
+    }
+
+    #[test]
+    fn seed_000_read_f0_29() {
+        // "访问变频器应用参数 F029": request 10 F0 29 00 00 00 00 16 (VAL is not read),
+        // reply 10 F0 29 00 00 00 00 25.
+        let mut drive = MockDrive::default();
+        drive.set(0xF029, 0x25);
+        let reply = run(&mut drive, [0x10, 0xF0, 0x29, 0, 0, 0, 0, 0x16]);
+        assert_eq!(reply, [0x10, 0xF0, 0x29, 0, 0, 0, 0, 0x25]);
+    }
+
+    #[test]
+    fn seed_000_write_f0_29() {
+        // "修改变频器应用参数 F029": request 20 F0 29 00 00 00 00 16, reply 10 F0 29 .. 16.
+        let mut drive = MockDrive::default();
+        let reply = run(&mut drive, [0x20, 0xF0, 0x29, 0, 0, 0, 0, 0x16]);
+        assert_eq!(reply, [0x10, 0xF0, 0x29, 0, 0, 0, 0, 0x16]);
+        assert_eq!(drive.get(0xF029), 0x16);
+        assert_eq!(drive.persistent_writes, 1);
+    }
+
+    #[test]
+    fn seed_000_read_d1_00() {
+        // "访问变频器状态参数 D100": reply value 02.
+        let mut drive = MockDrive::default();
+        drive.set(0xD100, 0x02);
+        let reply = run(&mut drive, [0x10, 0xD1, 0x00, 0, 0, 0, 0, 0]);
+        assert_eq!(reply, [0x10, 0xD1, 0x00, 0, 0, 0, 0, 0x02]);
+    }
+
+    #[test]
+    fn seed_000_refused_f0_58() {
+        // "访问变频器应用参数异常回答": request 10 F0 58 .., reply 70 F0 58 00 00 00 00 02.
+        let mut drive = MockDrive::default();
+        let reply = run(&mut drive, [0x10, 0xF0, 0x58, 0, 0, 0, 0, 0]);
+        assert_eq!(reply, [0x70, 0xF0, 0x58, 0, 0, 0, 0, 0x02]);
+    }
+
+    #[test]
+    fn every_error_path() {
+        let mut drive = MockDrive::default();
+        // Task 3: not an operation of this profile.
+        assert_eq!(run(&mut drive, [0x30, 0xF0, 0x29, 0, 0, 0, 0, 0])[7], 0x01);
+        // Writing a status value: access restricted.
+        assert_eq!(run(&mut drive, [0x20, 0xD1, 0x00, 0, 0, 0, 0, 1])[..], [0x70, 0xD1, 0x00, 0, 0, 0, 0, 0x11]);
+        // Whatever the drive or its link reports comes back as reply 7 with its value.
+        for error in [
+            DriveError::InvalidData,
+            DriveError::DriveFault,
+            DriveError::MemoryFault,
+            DriveError::BusNoise,
+            DriveError::NoAnswer,
+            DriveError::CrcError,
+        ] {
+            drive.fail_next = Some(error);
+            let reply = run(&mut drive, [0x10, 0xF0, 0x29, 0, 0, 0, 0, 0]);
+            assert_eq!(reply, [0x70, 0xF0, 0x29, 0, 0, 0, 0, error.code()], "{error:?}");
+        }
+        // Task 0: no reply.
+        assert_eq!(run(&mut drive, [0; 8]), [0; 8]);
+    }
+
+    #[test]
+    fn a_repeated_request_is_executed_once_and_keeps_its_answer() {
+        let mut drive = MockDrive::default();
+        let mut server = PkwServer::default();
+        let write = [0x20, 0xF0, 0x29, 0, 0, 0, 0, 0x30];
+        for _ in 0..5 {
+            server.received(write);
+            server.service(&mut drive);
+            assert_eq!(server.reply(), [0x10, 0xF0, 0x29, 0, 0, 0, 0, 0x30]);
+        }
+        assert_eq!(drive.persistent_writes, 1);
+        // The same value written by a new request (another parameter in between) does not
+        // write the memory again.
+        server.received([0x10, 0xF0, 0x29, 0, 0, 0, 0, 0]);
+        server.service(&mut drive);
+        server.received(write);
+        server.service(&mut drive);
+        assert_eq!(drive.persistent_writes, 1);
+        // A new value does.
+        server.received([0x20, 0xF0, 0x29, 0, 0, 0, 0, 0x31]);
+        server.service(&mut drive);
+        assert_eq!(drive.persistent_writes, 2);
+    }
+}

@@ -1,0 +1,114 @@
+//! A small drive for host tests: registers by function code, the vendor control word obeyed
+//! at once (no ramp), faults and link errors on request. The full drive simulator, with ramps
+//! and the seed's parameter groups, belongs to hal-sim (issue 6).
+
+use crate::codes::FunctionCode;
+use crate::drive::{Drive, DriveError, FaultRecord};
+use crate::words::{control, rose, status};
+
+/// Output frequency (D0.00): the set frequency (F0.29) while running.
+pub const OUTPUT_FREQUENCY: u16 = 0xD000;
+/// The set frequency.
+pub const SET_FREQUENCY: u16 = 0xF029;
+/// The newest fault record entry.
+pub const FAULT_RECORD: u16 = 0xDE00;
+
+#[derive(Clone, Debug, Default)]
+pub struct MockDrive {
+    registers: heapless::LinearMap<u16, u16, 64>,
+    pub control_word: u16,
+    /// Writes that went to non-volatile memory.
+    pub persistent_writes: u32,
+    /// The next call fails with this.
+    pub fail_next: Option<DriveError>,
+    /// Every call fails with NoAnswer (the cable is out).
+    pub disconnected: bool,
+    /// An active fault (Fu.xxx), cleared by a fault reset.
+    pub fault: Option<u8>,
+    /// Fault resets seen (rising edges of control bit 15).
+    pub fault_resets: u32,
+}
+
+impl MockDrive {
+    pub fn set(&mut self, code: u16, value: u16) {
+        let _ = self.registers.insert(code, value);
+    }
+
+    pub fn get(&self, code: u16) -> u16 {
+        self.registers.get(&code).copied().unwrap_or(0)
+    }
+
+    fn check(&mut self) -> Result<(), DriveError> {
+        if self.disconnected {
+            return Err(DriveError::NoAnswer);
+        }
+        match self.fail_next.take() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    pub fn running(&self) -> bool {
+        let cw = self.control_word;
+        let needed = control::RUN_ENABLE | control::START_ENABLE | control::RUN;
+        self.fault.is_none()
+            && cw & needed == needed
+            && cw & (control::QUICK_STOP | control::COAST_STOP) == 0
+    }
+}
+
+impl Drive for MockDrive {
+    fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
+        self.check()?;
+        Ok(match code.0 {
+            OUTPUT_FREQUENCY if self.running() => self.get(SET_FREQUENCY),
+            OUTPUT_FREQUENCY => 0,
+            FAULT_RECORD => self.fault.map_or(0, |f| u16::from(FaultRecord::Fault(f).to_byte())),
+            other => self.get(other),
+        })
+    }
+
+    fn write(&mut self, code: FunctionCode, value: u16, persist: bool) -> Result<(), DriveError> {
+        self.check()?;
+        self.set(code.0, value);
+        if persist {
+            self.persistent_writes += 1;
+        }
+        Ok(())
+    }
+
+    fn write_control(&mut self, control_word: u16) -> Result<(), DriveError> {
+        self.check()?;
+        if rose(self.control_word, control_word, control::FAULT_RESET) {
+            self.fault_resets += 1;
+            self.fault = None;
+        }
+        self.control_word = control_word;
+        Ok(())
+    }
+
+    fn read_status(&mut self) -> Result<u16, DriveError> {
+        self.check()?;
+        let cw = self.control_word;
+        let mut sw = status::READY | status::COMMAND_FROM_BUS | status::REFERENCE_FROM_BUS;
+        if cw & control::RUN_ENABLE != 0 {
+            sw |= status::RUN_ENABLED;
+        }
+        if cw & control::START_ENABLE != 0 {
+            sw |= status::START_ENABLED;
+        }
+        if self.running() {
+            sw |= status::RUNNING | status::AT_SETPOINT;
+            if cw & control::REVERSE != 0 {
+                sw |= status::REVERSE;
+            }
+        } else {
+            sw |= status::ZERO_SPEED;
+        }
+        if self.fault.is_some() {
+            sw |= status::FAULT;
+            sw &= !status::READY;
+        }
+        Ok(sw)
+    }
+}

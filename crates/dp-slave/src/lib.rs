@@ -10,6 +10,8 @@
 
 mod app;
 pub mod cfg;
+#[cfg(feature = "harness")]
+pub mod harness;
 mod slave;
 pub mod testing;
 

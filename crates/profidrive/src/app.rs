@@ -96,7 +96,7 @@ impl<D: Drive> ProfidriveApp<D> {
         self.ppo
     }
 
-    pub fn fail_safe(&self) -> Option<FailSafeCause> {
+    pub fn fail_safe_cause(&self) -> Option<FailSafeCause> {
         self.fail_safe
     }
 
@@ -150,7 +150,11 @@ impl<D: Drive> ProfidriveApp<D> {
         self.note_link(now, result.err());
     }
 
-    fn exchange_with_drive(&mut self, apply: &[u16; MAX_PZD_WORDS], words: usize) -> Result<(), DriveError> {
+    fn exchange_with_drive(
+        &mut self,
+        apply: &[u16; MAX_PZD_WORDS],
+        words: usize,
+    ) -> Result<(), DriveError> {
         let mut first_error = None;
         let mut note = |r: Result<(), DriveError>| {
             if let Err(e) = r {
@@ -158,16 +162,16 @@ impl<D: Drive> ProfidriveApp<D> {
             }
         };
         note(self.drive.write_control(apply[0]));
-        for i in 1..words {
-            note(self.drive.write(self.prm.wr_pzd[i - 1], apply[i], false));
+        for (target, value) in self.prm.wr_pzd.iter().zip(&apply[1..words]) {
+            note(self.drive.write(*target, *value, false));
         }
         match self.drive.read_status() {
             Ok(sw) => self.pzd_in[0] = sw,
             Err(e) => note(Err(e)),
         }
-        for i in 1..words {
-            match self.drive.read(self.prm.rd_pzd[i - 1]) {
-                Ok(v) => self.pzd_in[i] = v,
+        for (source, value) in self.prm.rd_pzd.iter().zip(&mut self.pzd_in[1..words]) {
+            match self.drive.read(*source) {
+                Ok(v) => *value = v,
                 Err(e) => note(Err(e)),
             }
         }
@@ -232,7 +236,8 @@ impl<D: Drive> Application for ProfidriveApp<D> {
 
     fn outputs(&mut self, now: Instant, outputs: &[u8]) {
         let Some(ppo) = self.ppo else { return };
-        if outputs.iter().all(|b| *b == 0) && self.prm.control_zero == ControlZeroMode::IgnoreFrame {
+        if outputs.iter().all(|b| *b == 0) && self.prm.control_zero == ControlZeroMode::IgnoreFrame
+        {
             return;
         }
         let pzd = if ppo.has_pkw() {
@@ -286,5 +291,207 @@ impl<D: Drive> Application for ProfidriveApp<D> {
 
     fn store_address(&mut self, _address: u8, _no_add_chg: bool) {
         // The adapter persists the address; the drive application has nothing to keep.
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{MockDrive, OUTPUT_FREQUENCY, SET_FREQUENCY};
+    use crate::words::status;
+
+    const START: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
+
+    fn app_with(prm: UserPrm, ppo: Ppo) -> ProfidriveApp<MockDrive> {
+        let mut app = ProfidriveApp::new(MockDrive::default());
+        assert!(app.accept_user_prm(&prm.encode()));
+        assert_eq!(
+            app.accept_cfg(ppo.cfg()).map(|io| io.outputs),
+            Some(ppo.io_bytes())
+        );
+        app
+    }
+
+    /// PPO3 outputs: control word and reference.
+    fn ppo3(cw: u16, reference: u16) -> [u8; 4] {
+        let [a, b] = cw.to_be_bytes();
+        let [c, d] = reference.to_be_bytes();
+        [a, b, c, d]
+    }
+
+    fn exchange(app: &mut ProfidriveApp<MockDrive>, now_ms: u64, outputs: &[u8]) -> Vec<u16> {
+        let now = Instant::from_millis(now_ms);
+        app.outputs(now, outputs);
+        app.service(now);
+        let mut inputs = vec![0u8; outputs.len()];
+        app.inputs(now, &mut inputs);
+        inputs
+            .chunks(2)
+            .map(|w| u16::from_be_bytes([w[0], w[1]]))
+            .collect()
+    }
+
+    #[test]
+    fn seed_000_pzd1_is_the_control_and_status_word_and_pzd2_follows_the_mapping() {
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        // WrPZD2 = F0.29 (set frequency), RdPZD2 = D0.00 (output frequency).
+        let inputs = exchange(&mut app, 1, &ppo3(START, 5000));
+        assert_eq!(app.drive().control_word, START);
+        assert_eq!(app.drive().get(SET_FREQUENCY), 5000);
+        assert_eq!(inputs[0] & status::RUNNING, status::RUNNING);
+        assert_eq!(inputs[1], 5000);
+        // PZD writes are run-time values: no wear of the drive's memory.
+        assert_eq!(app.drive().persistent_writes, 0);
+        let inputs = exchange(&mut app, 2, &ppo3(START & !control::RUN, 5000));
+        assert_eq!(inputs[0] & status::RUNNING, 0);
+        assert_eq!(inputs[1], 0);
+        assert_eq!(app.drive().get(OUTPUT_FREQUENCY), 0);
+    }
+
+    #[test]
+    fn mapping_from_the_user_parameters() {
+        let mut prm = UserPrm::DEFAULT;
+        prm.wr_pzd[0] = crate::codes::FunctionCode(0xF105);
+        prm.rd_pzd[0] = crate::codes::FunctionCode(0xD105);
+        let mut app = app_with(prm, Ppo::Ppo3);
+        app.drive_mut().set(0xD105, 77);
+        let inputs = exchange(&mut app, 1, &ppo3(START, 1234));
+        assert_eq!(app.drive().get(0xF105), 1234);
+        assert_eq!(inputs[1], 77);
+    }
+
+    #[test]
+    fn fail_safe_modes_of_seed_004() {
+        for mode in [
+            FailSafeMode::Stop,
+            FailSafeMode::LastSpeed,
+            FailSafeMode::UseFailSafeValues,
+        ] {
+            for reason in [FailSafeReason::ClearData, FailSafeReason::WatchdogExpired] {
+                let mut prm = UserPrm::DEFAULT;
+                prm.fail_safe = mode;
+                prm.fail_safe_pzd[0] = control::RUN_ENABLE | control::START_ENABLE;
+                prm.fail_safe_pzd[1] = 1500;
+                let mut app = app_with(prm, Ppo::Ppo3);
+                exchange(&mut app, 1, &ppo3(START, 5000));
+                Application::fail_safe(&mut app, Instant::from_millis(2), reason);
+                app.service(Instant::from_millis(2));
+                let (cw, reference) = (app.drive().control_word, app.drive().get(SET_FREQUENCY));
+                match mode {
+                    FailSafeMode::Stop => {
+                        assert_eq!((cw, reference), (START & !control::RUN, 5000))
+                    }
+                    FailSafeMode::LastSpeed => assert_eq!((cw, reference), (START, 5000)),
+                    FailSafeMode::UseFailSafeValues => assert_eq!(
+                        (cw, reference),
+                        (control::RUN_ENABLE | control::START_ENABLE, 1500)
+                    ),
+                }
+                assert!(app.fail_safe_cause().is_some(), "{mode:?} {reason:?}");
+                // The master returns: its outputs apply again.
+                exchange(&mut app, 3, &ppo3(START, 4000));
+                assert_eq!(app.fail_safe_cause(), None);
+                assert_eq!(
+                    (app.drive().control_word, app.drive().get(SET_FREQUENCY)),
+                    (START, 4000)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn communication_cut_off() {
+        let mut prm = UserPrm::DEFAULT;
+        prm.cut_off_ms = 100;
+        let mut app = app_with(prm, Ppo::Ppo3);
+        exchange(&mut app, 0, &ppo3(START, 5000));
+        app.service(Instant::from_millis(99));
+        assert_eq!(app.fail_safe_cause(), None);
+        app.service(Instant::from_millis(100));
+        assert_eq!(app.fail_safe_cause(), Some(FailSafeCause::CutOff));
+        assert_eq!(app.drive().control_word, START & !control::RUN);
+    }
+
+    #[test]
+    fn control_zero_mode() {
+        let mut prm = UserPrm::DEFAULT;
+        prm.control_zero = ControlZeroMode::IgnoreFrame;
+        let mut app = app_with(prm, Ppo::Ppo3);
+        exchange(&mut app, 1, &ppo3(START, 5000));
+        exchange(&mut app, 2, &[0; 4]);
+        assert_eq!(
+            (app.drive().control_word, app.drive().get(SET_FREQUENCY)),
+            (START, 5000)
+        );
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        exchange(&mut app, 1, &ppo3(START, 5000));
+        exchange(&mut app, 2, &[0; 4]);
+        assert_eq!(
+            (app.drive().control_word, app.drive().get(SET_FREQUENCY)),
+            (0, 0)
+        );
+    }
+
+    #[test]
+    fn a_lost_drive_shows_c0xx_and_the_extended_diagnosis_then_recovers() {
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        exchange(&mut app, 0, &ppo3(START, 5000));
+        app.drive_mut().disconnected = true;
+        let inputs = exchange(&mut app, 10, &ppo3(START, 5000));
+        assert_eq!(inputs[0], 0xC022);
+        assert!(app.diag_changed());
+        let mut diag = [0u8; 8];
+        assert_eq!(app.ext_diag(&mut diag), 2);
+        assert_eq!(diag[..2], [2, EXT_DIAG_LINK_LOST_TEMPORARILY]);
+        // A second later the loss is permanent.
+        exchange(&mut app, 1010, &ppo3(START, 5000));
+        assert!(app.diag_changed());
+        app.ext_diag(&mut diag);
+        assert_eq!(diag[1], EXT_DIAG_LINK_LOST_PERMANENTLY);
+        app.drive_mut().disconnected = false;
+        let inputs = exchange(&mut app, 1020, &ppo3(START, 5000));
+        assert_eq!(
+            inputs[0] & 0xFF00,
+            (status::COMMAND_FROM_BUS | status::REFERENCE_FROM_BUS | status::AT_SETPOINT) & 0xFF00
+        );
+        assert!(app.diag_changed());
+        assert_eq!(app.ext_diag(&mut diag), 0);
+        // A single bad answer is reported with its own code.
+        app.drive_mut().fail_next = Some(DriveError::CrcError);
+        assert_eq!(exchange(&mut app, 1030, &ppo3(START, 5000))[0], 0xC023);
+    }
+
+    #[test]
+    fn pkw_through_ppo1() {
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo1);
+        app.drive_mut().set(0xF029, 0x25);
+        let mut out = [0u8; 12];
+        out[..8].copy_from_slice(&[0x10, 0xF0, 0x29, 0, 0, 0, 0, 0]);
+        out[8..10].copy_from_slice(&START.to_be_bytes());
+        out[10..12].copy_from_slice(&0x25u16.to_be_bytes());
+        let inputs = exchange(&mut app, 1, &out);
+        let bytes: Vec<u8> = inputs.iter().flat_map(|w| w.to_be_bytes()).collect();
+        assert_eq!(bytes[..8], [0x10, 0xF0, 0x29, 0, 0, 0, 0, 0x25]);
+        // The fault record reads through PKW: a fault Fu.012 shows as 0x8C in DE.00.
+        app.drive_mut().fault = Some(12);
+        out[..8].copy_from_slice(&[0x10, 0xDE, 0x00, 0, 0, 0, 0, 0]);
+        let inputs = exchange(&mut app, 2, &out);
+        assert_eq!(inputs[3], 0x008C);
+        assert_eq!(inputs[4] & status::FAULT, status::FAULT);
+        // Fault reset on 0 -> 1 of bit 15.
+        out[8..10].copy_from_slice(&(START | control::FAULT_RESET).to_be_bytes());
+        let inputs = exchange(&mut app, 3, &out);
+        assert_eq!(inputs[4] & status::FAULT, 0);
+        assert_eq!(app.drive().fault_resets, 1);
+    }
+
+    #[test]
+    fn refused_configurations_and_parameters() {
+        let mut app = ProfidriveApp::new(MockDrive::default());
+        assert_eq!(app.accept_cfg(&[0xF3, 0xF3]), None);
+        assert!(!app.accept_user_prm(&[0; 10]));
+        let mut bad = UserPrm::DEFAULT.encode();
+        bad[1] = 0x03;
+        assert!(!app.accept_user_prm(&bad));
     }
 }

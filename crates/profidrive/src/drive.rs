@@ -31,7 +31,10 @@ impl DriveError {
 
     /// Whether the link failed (as opposed to the drive refusing the request).
     pub const fn is_link_fault(self) -> bool {
-        matches!(self, DriveError::BusNoise | DriveError::NoAnswer | DriveError::CrcError)
+        matches!(
+            self,
+            DriveError::BusNoise | DriveError::NoAnswer | DriveError::CrcError
+        )
     }
 }
 

@@ -68,8 +68,14 @@ impl Request {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Reply {
     None,
-    Value { code: FunctionCode, value: u16 },
-    Refused { code: FunctionCode, error: DriveError },
+    Value {
+        code: FunctionCode,
+        value: u16,
+    },
+    Refused {
+        code: FunctionCode,
+        error: DriveError,
+    },
 }
 
 pub const REPLY_NONE: u8 = 0;
@@ -217,7 +223,10 @@ mod tests {
         // Task 3: not an operation of this profile.
         assert_eq!(run(&mut drive, [0x30, 0xF0, 0x29, 0, 0, 0, 0, 0])[7], 0x01);
         // Writing a status value: access restricted.
-        assert_eq!(run(&mut drive, [0x20, 0xD1, 0x00, 0, 0, 0, 0, 1])[..], [0x70, 0xD1, 0x00, 0, 0, 0, 0, 0x11]);
+        assert_eq!(
+            run(&mut drive, [0x20, 0xD1, 0x00, 0, 0, 0, 0, 1])[..],
+            [0x70, 0xD1, 0x00, 0, 0, 0, 0, 0x11]
+        );
         // Whatever the drive or its link reports comes back as reply 7 with its value.
         for error in [
             DriveError::InvalidData,
@@ -229,7 +238,11 @@ mod tests {
         ] {
             drive.fail_next = Some(error);
             let reply = run(&mut drive, [0x10, 0xF0, 0x29, 0, 0, 0, 0, 0]);
-            assert_eq!(reply, [0x70, 0xF0, 0x29, 0, 0, 0, 0, error.code()], "{error:?}");
+            assert_eq!(
+                reply,
+                [0x70, 0xF0, 0x29, 0, 0, 0, 0, error.code()],
+                "{error:?}"
+            );
         }
         // Task 0: no reply.
         assert_eq!(run(&mut drive, [0; 8]), [0; 8]);

@@ -29,7 +29,14 @@ pub enum Ppo {
 }
 
 impl Ppo {
-    pub const ALL: [Ppo; 6] = [Ppo::Ppo1, Ppo::Ppo2, Ppo::Ppo3, Ppo::Ppo4, Ppo::Ppo5, Ppo::Ppo6];
+    pub const ALL: [Ppo; 6] = [
+        Ppo::Ppo1,
+        Ppo::Ppo2,
+        Ppo::Ppo3,
+        Ppo::Ppo4,
+        Ppo::Ppo5,
+        Ppo::Ppo6,
+    ];
 
     /// The Chk_Cfg bytes that select this type.
     pub const fn cfg(self) -> &'static [u8] {
@@ -100,7 +107,10 @@ mod tests {
         ];
         for (cfg, number, pzd, bytes) in table {
             let ppo = Ppo::from_cfg(cfg).unwrap();
-            assert_eq!((ppo.number(), ppo.pzd_words(), ppo.io_bytes()), (number, pzd, bytes));
+            assert_eq!(
+                (ppo.number(), ppo.pzd_words(), ppo.io_bytes()),
+                (number, pzd, bytes)
+            );
             // The general identifier format agrees (dp-slave sizes it independently).
             let io = dp_slave::cfg::io_sizes(cfg).unwrap();
             assert_eq!((io.inputs, io.outputs), (bytes, bytes));
@@ -109,7 +119,13 @@ mod tests {
 
     #[test]
     fn other_configurations_are_refused() {
-        for cfg in [&[][..], &[0xF1, 0xF3], &[0xF3], &[0xF3, 0xF1, 0x00], &[0xF2]] {
+        for cfg in [
+            &[][..],
+            &[0xF1, 0xF3],
+            &[0xF3],
+            &[0xF3, 0xF1, 0x00],
+            &[0xF2],
+        ] {
             assert_eq!(Ppo::from_cfg(cfg), None, "{cfg:02X?}");
         }
     }

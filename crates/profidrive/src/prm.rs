@@ -215,8 +215,12 @@ mod tests {
     #[test]
     fn seed_000_gsd_default_mapping() {
         // Seed 000's table: RdPZD2 = D0.00 .. RdPZD10 = D0.34; WrPZD2 = F0.29 .. WrPZD10 = F1.06.
-        let rd = ["D0.00", "D0.01", "D0.02", "D0.04", "D0.05", "D0.07", "D0.08", "D0.33", "D0.34"];
-        let wr = ["F0.29", "F1.03", "F1.04", "F8.21", "F8.22", "F8.25", "F8.26", "F1.05", "F1.06"];
+        let rd = [
+            "D0.00", "D0.01", "D0.02", "D0.04", "D0.05", "D0.07", "D0.08", "D0.33", "D0.34",
+        ];
+        let wr = [
+            "F0.29", "F1.03", "F1.04", "F8.21", "F8.22", "F8.25", "F8.26", "F1.05", "F1.06",
+        ];
         for i in 0..9 {
             assert_eq!(UserPrm::DEFAULT.rd_pzd[i].to_string(), rd[i]);
             assert_eq!(UserPrm::DEFAULT.wr_pzd[i].to_string(), wr[i]);

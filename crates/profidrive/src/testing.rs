@@ -63,7 +63,9 @@ impl Drive for MockDrive {
         Ok(match code.0 {
             OUTPUT_FREQUENCY if self.running() => self.get(SET_FREQUENCY),
             OUTPUT_FREQUENCY => 0,
-            FAULT_RECORD => self.fault.map_or(0, |f| u16::from(FaultRecord::Fault(f).to_byte())),
+            FAULT_RECORD => self
+                .fault
+                .map_or(0, |f| u16::from(FaultRecord::Fault(f).to_byte())),
             other => self.get(other),
         })
     }

@@ -9,6 +9,7 @@
 //! - [`words`]: the vendor control and status words.
 //! - [`drive`]: the drive as the application sees it, and the error and fault codes.
 //! - [`app`]: [`ProfidriveApp`], dp-slave's `Application`.
+//! - [`gsd`]: the device's GSD file.
 //!
 //! no_std, no allocation, no clock: time comes in as `dp_slave::Instant`.
 #![cfg_attr(not(test), no_std)]
@@ -17,6 +18,7 @@
 pub mod app;
 pub mod codes;
 pub mod drive;
+pub mod gsd;
 pub mod pkw;
 pub mod ppo;
 pub mod prm;

@@ -1,0 +1,281 @@
+//! The adapter's GSD file, written from the constants the firmware uses: the Ident_Number and
+//! rates of dp-consts, one module per PPO type, the User_Prm_Data layout and defaults of
+//! [`crate::prm`]. `cargo xtask gsd` writes it; a test parses it with gsd-parser and checks it
+//! against the application.
+//!
+//! MaxTsdr is the SPC3 table (60 bit times up to 187.5k .. 800 at 12M). The firmware's measured
+//! worst turnaround (`cargo xtask qemu-test`) stays under it at every rate: 510 of 800 at 12M,
+//! counted at one instruction per cycle.
+
+use crate::ppo::{Ppo, MAX_PZD_WORDS};
+use crate::prm::UserPrm;
+use core::fmt::{self, Write};
+use dp_consts::Baud;
+
+/// The file name a configuration tool expects: vendor prefix and Ident_Number.
+pub const FILE_NAME: &str = "DPADD7A1.GSD";
+
+const VENDOR: &str = "Open DP drive adapter project";
+const MODEL: &str = "DP drive adapter";
+
+/// Ext_User_Prm_Data number, name, data type, default, range, offset, text reference.
+struct Field {
+    name: &'static str,
+    data_type: &'static str,
+    default: u16,
+    range: (u16, u16),
+    offset: usize,
+    text: Option<u8>,
+}
+
+fn fields() -> impl Iterator<Item = Field> {
+    let prm = UserPrm::DEFAULT;
+    let header = [
+        Field {
+            name: "Fail-safe mode",
+            data_type: "BitArea(0-1)",
+            default: prm.fail_safe as u16,
+            range: (0, 2),
+            offset: 1,
+            text: Some(1),
+        },
+        Field {
+            name: "Control-zero mode",
+            data_type: "BitArea(2-3)",
+            default: prm.control_zero as u16,
+            range: (0, 1),
+            offset: 1,
+            text: Some(2),
+        },
+        Field {
+            name: "Operation mode",
+            data_type: "BitArea(4-5)",
+            default: prm.operation as u16,
+            range: (0, 1),
+            offset: 1,
+            text: Some(3),
+        },
+        Field {
+            name: "Cut-off time ms (0 = none)",
+            data_type: "Unsigned16",
+            default: prm.cut_off_ms,
+            range: (0, 65535),
+            offset: 2,
+            text: None,
+        },
+    ];
+    const FAIL_SAFE_NAMES: [&str; MAX_PZD_WORDS] = [
+        "Fail-safe PZD1 (CW)",
+        "Fail-safe PZD2 (REF)",
+        "Fail-safe PZD3",
+        "Fail-safe PZD4",
+        "Fail-safe PZD5",
+        "Fail-safe PZD6",
+        "Fail-safe PZD7",
+        "Fail-safe PZD8",
+        "Fail-safe PZD9",
+        "Fail-safe PZD10",
+    ];
+    const RD_NAMES: [&str; MAX_PZD_WORDS - 1] = [
+        "RdPZD2", "RdPZD3", "RdPZD4", "RdPZD5", "RdPZD6", "RdPZD7", "RdPZD8", "RdPZD9", "RdPZD10",
+    ];
+    const WR_NAMES: [&str; MAX_PZD_WORDS - 1] = [
+        "WrPZD2", "WrPZD3", "WrPZD4", "WrPZD5", "WrPZD6", "WrPZD7", "WrPZD8", "WrPZD9", "WrPZD10",
+    ];
+    let fail_safe = (0..MAX_PZD_WORDS).map(move |i| Field {
+        name: FAIL_SAFE_NAMES[i],
+        data_type: "Unsigned16",
+        default: prm.fail_safe_pzd[i],
+        range: (0, 65535),
+        offset: 4 + 2 * i,
+        text: None,
+    });
+    let rd = (0..MAX_PZD_WORDS - 1).map(move |i| Field {
+        name: RD_NAMES[i],
+        data_type: "Unsigned16",
+        default: prm.rd_pzd[i].0,
+        range: (0xD000, 0xDE25),
+        offset: 24 + 2 * i,
+        text: None,
+    });
+    let wr = (0..MAX_PZD_WORDS - 1).map(move |i| Field {
+        name: WR_NAMES[i],
+        data_type: "Unsigned16",
+        default: prm.wr_pzd[i].0,
+        range: (0xF000, 0xFF55),
+        offset: 42 + 2 * i,
+        text: None,
+    });
+    header.into_iter().chain(fail_safe).chain(rd).chain(wr)
+}
+
+/// Writes the GSD file.
+pub fn write(out: &mut impl Write) -> fmt::Result {
+    let line = |out: &mut dyn Write, key: &str, value: &dyn fmt::Display| {
+        writeln!(out, "{key:<22}= {value}")
+    };
+    writeln!(out, "#Profibus_DP")?;
+    writeln!(
+        out,
+        "; GSD of the open PROFIBUS DP drive adapter, written by `cargo xtask gsd`."
+    )?;
+    writeln!(
+        out,
+        "; Do not edit: it is generated from the constants the firmware uses."
+    )?;
+    line(out, "GSD_Revision", &2)?;
+    line(out, "Vendor_Name", &Quoted(VENDOR))?;
+    line(out, "Model_Name", &Quoted(MODEL))?;
+    line(out, "Revision", &Quoted("1.0"))?;
+    line(out, "Ident_Number", &Hex(dp_consts::ADAPTER_IDENT_NUMBER))?;
+    line(out, "Protocol_Ident", &0)?;
+    line(out, "Station_Type", &0)?;
+    line(out, "FMS_supp", &0)?;
+    line(out, "Hardware_Release", &Quoted("1.0"))?;
+    line(out, "Software_Release", &Quoted("0.1"))?;
+    // `{:<22}` does not pad `format_args!`: pad by hand.
+    let keyed = |out: &mut dyn Write, prefix: &str, name: &str, suffix: &str, value: u16| {
+        let len = prefix.len() + name.len() + suffix.len();
+        writeln!(
+            out,
+            "{prefix}{name}{suffix}{:pad$}= {value}",
+            "",
+            pad = 22usize.saturating_sub(len)
+        )
+    };
+    for baud in Baud::ALL {
+        keyed(out, "", baud.gsd_name(), "_supp", 1)?;
+    }
+    for baud in Baud::ALL {
+        keyed(
+            out,
+            "MaxTsdr_",
+            baud.gsd_name(),
+            "",
+            baud.default_max_tsdr_bits(),
+        )?;
+    }
+    line(out, "Redundancy", &0)?;
+    line(out, "Repeater_Ctrl_Sig", &2)?;
+    line(out, "24V_Pins", &0)?;
+    line(
+        out,
+        "Implementation_Type",
+        &Quoted("FPGA transceiver + Cortex-M3"),
+    )?;
+    line(out, "Freeze_Mode_supp", &1)?;
+    line(out, "Sync_Mode_supp", &1)?;
+    line(out, "Auto_Baud_supp", &1)?;
+    line(out, "Set_Slave_Add_supp", &1)?;
+    line(out, "Fail_Safe", &1)?;
+    line(out, "Min_Slave_Intervall", &1)?;
+    line(out, "Modular_Station", &1)?;
+    line(out, "Max_Module", &1)?;
+    let max_io = Ppo::ALL.iter().map(|p| p.io_bytes()).max().unwrap_or(0);
+    line(out, "Max_Input_Len", &max_io)?;
+    line(out, "Max_Output_Len", &max_io)?;
+    line(out, "Max_Data_Len", &(2 * max_io))?;
+    line(out, "Modul_Offset", &0)?;
+    line(
+        out,
+        "Max_Diag_Data_Len",
+        &(dp_consts::diag::STANDARD_LEN + crate::app::EXT_DIAG_LEN as usize),
+    )?;
+    line(out, "Slave_Family", &1)?;
+    line(out, "Max_User_Prm_Data_Len", &UserPrm::LEN)?;
+    writeln!(out)?;
+    writeln!(
+        out,
+        "Unit_Diag_Bit(0)      = \"Drive link temporarily lost\""
+    )?;
+    writeln!(
+        out,
+        "Unit_Diag_Bit(1)      = \"Drive link permanently lost\""
+    )?;
+    writeln!(out)?;
+    let texts: [(u8, &[&str]); 3] = [
+        (1, &["Stop", "Last speed", "Use fail-safe values"]),
+        (2, &["Use frame", "Ignore frame"]),
+        (3, &["PROFIdrive (seed 004)", "Vendor (IOA-B103 words)"]),
+    ];
+    for (n, values) in texts {
+        writeln!(out, "PrmText = {n}")?;
+        for (i, text) in values.iter().enumerate() {
+            writeln!(out, "Text({i}) = \"{text}\"")?;
+        }
+        writeln!(out, "EndPrmText")?;
+    }
+    writeln!(out)?;
+    for (n, f) in fields().enumerate() {
+        writeln!(out, "ExtUserPrmData = {} \"{}\"", n + 1, f.name)?;
+        if f.range.0 >= 0xD000 {
+            // Function codes read best in hex (F0.29 is 0xF029).
+            writeln!(
+                out,
+                "{} {} {}-{}",
+                f.data_type,
+                Hex(f.default),
+                Hex(f.range.0),
+                Hex(f.range.1)
+            )?;
+        } else {
+            writeln!(
+                out,
+                "{} {} {}-{}",
+                f.data_type, f.default, f.range.0, f.range.1
+            )?;
+        }
+        if let Some(t) = f.text {
+            writeln!(out, "Prm_Text_Ref = {t}")?;
+        }
+        writeln!(out, "EndExtUserPrmData")?;
+    }
+    writeln!(out)?;
+    write!(out, "Ext_User_Prm_Data_Const(0) = ")?;
+    for (i, b) in UserPrm::DEFAULT.encode().iter().enumerate() {
+        if i > 0 {
+            write!(out, ",")?;
+            if i % 12 == 0 {
+                write!(out, " \\\n    ")?;
+            } else {
+                write!(out, " ")?;
+            }
+        }
+        write!(out, "{}", Hex8(*b))?;
+    }
+    writeln!(out)?;
+    for (n, f) in fields().enumerate() {
+        writeln!(out, "Ext_User_Prm_Data_Ref({}) = {}", f.offset, n + 1)?;
+    }
+    writeln!(out)?;
+    for ppo in Ppo::ALL {
+        write!(out, "Module = \"PPO Type {}\"", ppo.number())?;
+        for (i, b) in ppo.cfg().iter().enumerate() {
+            write!(out, "{} {}", if i == 0 { "" } else { "," }, Hex8(*b))?;
+        }
+        writeln!(out)?;
+        writeln!(out, "EndModule")?;
+    }
+    Ok(())
+}
+
+struct Quoted(&'static str);
+impl fmt::Display for Quoted {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "\"{}\"", self.0)
+    }
+}
+
+struct Hex(u16);
+impl fmt::Display for Hex {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "0x{:04X}", self.0)
+    }
+}
+
+struct Hex8(u8);
+impl fmt::Display for Hex8 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "0x{:02X}", self.0)
+    }
+}

@@ -17,6 +17,7 @@ use crate::drive::{Drive, DriveError, PZD1_LINK_ERROR};
 use crate::pkw::{PkwServer, PKW_BYTES};
 use crate::ppo::{Ppo, MAX_PZD_WORDS};
 use crate::prm::{ControlZeroMode, FailSafeMode, OperationMode, UserPrm};
+use crate::profile::Profile;
 use crate::words::control;
 use dp_slave::{Application, FailSafeReason, Instant, IoSizes};
 
@@ -59,7 +60,16 @@ pub struct ProfidriveApp<D> {
     link_lost_since: Option<Instant>,
     ext_diag_flags: u8,
     diag_changed: bool,
+    /// The PROFIdrive state machine (operation mode PROFIdrive).
+    profile: Profile,
+    /// The drive's last vendor status word.
+    drive_status: u16,
+    /// The drive's reference value that 0x4000 (rated speed) means in the PROFIdrive mode.
+    rated_reference: u16,
 }
+
+/// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
+pub const DEFAULT_RATED_REFERENCE: u16 = 5000;
 
 impl<D: Drive> ProfidriveApp<D> {
     pub fn new(drive: D) -> ProfidriveApp<D> {
@@ -77,7 +87,20 @@ impl<D: Drive> ProfidriveApp<D> {
             link_lost_since: None,
             ext_diag_flags: 0,
             diag_changed: false,
+            profile: Profile::default(),
+            drive_status: 0,
+            rated_reference: DEFAULT_RATED_REFERENCE,
         }
+    }
+
+    /// The drive's reference value for the rated speed (PROFIdrive mode scaling).
+    pub fn set_rated_reference(&mut self, rated: u16) {
+        self.rated_reference = rated;
+    }
+
+    /// The PROFIdrive state machine.
+    pub fn profile(&self) -> &Profile {
+        &self.profile
     }
 
     pub fn drive(&self) -> &D {
@@ -161,20 +184,45 @@ impl<D: Drive> ProfidriveApp<D> {
                 first_error.get_or_insert(e);
             }
         };
-        note(self.drive.write_control(apply[0]));
-        for (target, value) in self.prm.wr_pzd.iter().zip(&apply[1..words]) {
+        let profidrive = self.prm.operation == OperationMode::Profidrive;
+        let mut to_drive = *apply;
+        if profidrive {
+            // PZD1/PZD2 are the PROFIdrive CW and REF: the state machine makes the drive's.
+            let d = self.profile.command(
+                apply[0],
+                apply[1] as i16,
+                self.drive_status,
+                self.rated_reference,
+            );
+            to_drive[0] = d.control_word;
+            to_drive[1] = d.reference;
+        }
+        note(self.drive.write_control(to_drive[0]));
+        for (target, value) in self.prm.wr_pzd.iter().zip(&to_drive[1..words]) {
             note(self.drive.write(*target, *value, false));
         }
+        let mut from_drive = self.pzd_in;
         match self.drive.read_status() {
-            Ok(sw) => self.pzd_in[0] = sw,
+            Ok(sw) => {
+                self.drive_status = sw;
+                from_drive[0] = sw;
+            }
             Err(e) => note(Err(e)),
         }
-        for (source, value) in self.prm.rd_pzd.iter().zip(&mut self.pzd_in[1..words]) {
+        for (source, value) in self.prm.rd_pzd.iter().zip(&mut from_drive[1..words]) {
             match self.drive.read(*source) {
                 Ok(v) => *value = v,
                 Err(e) => note(Err(e)),
             }
         }
+        if profidrive {
+            from_drive[0] = self.profile.status_word(self.drive_status);
+            from_drive[1] =
+                self.profile
+                    .actual(self.drive_status, from_drive[1], self.rated_reference)
+                    as u16;
+        }
+        self.pzd_in = from_drive;
         match first_error {
             Some(e) => {
                 self.pzd_in[0] = PZD1_LINK_ERROR | u16::from(e.code());
@@ -210,6 +258,9 @@ impl<D: Drive> Application for ProfidriveApp<D> {
     fn accept_user_prm(&mut self, user_prm: &[u8]) -> bool {
         match UserPrm::parse(user_prm) {
             Ok(prm) => {
+                if prm.operation != self.prm.operation {
+                    self.profile = Profile::default();
+                }
                 self.prm = prm;
                 true
             }
@@ -483,6 +534,39 @@ mod tests {
         let inputs = exchange(&mut app, 3, &out);
         assert_eq!(inputs[4] & status::FAULT, 0);
         assert_eq!(app.drive().fault_resets, 1);
+    }
+
+    #[test]
+    fn profidrive_mode_runs_the_drive_through_the_state_machine() {
+        use crate::profile::{control as pd, status as pds};
+        let mut prm = UserPrm::DEFAULT;
+        prm.operation = OperationMode::Profidrive;
+        let mut app = app_with(prm, Ppo::Ppo3);
+        let off = pd::NO_OFF2 | pd::NO_OFF3 | pd::REMOTE_CMD;
+        let run = off
+            | pd::ON
+            | pd::OPERATION_ENABLE
+            | pd::RAMP_OUT_ENABLE
+            | pd::RAMP_ACCELERATOR_ENABLE
+            | pd::RAMP_INPUT_ENABLE;
+        exchange(&mut app, 1, &ppo3(off, 0));
+        exchange(&mut app, 2, &ppo3(off | pd::ON, 0));
+        // Three quarters of the rated speed in reverse: 37.50 Hz, reverse, running.
+        let reference = (-0x3000i16) as u16;
+        exchange(&mut app, 3, &ppo3(run, reference));
+        let inputs = exchange(&mut app, 4, &ppo3(run, reference));
+        assert!(app.drive().running());
+        assert_eq!(app.drive().get(SET_FREQUENCY), 3750);
+        assert_eq!(
+            app.drive().control_word & control::REVERSE,
+            control::REVERSE
+        );
+        assert_eq!(inputs[0] & 0x7, pds::RDY_ON | pds::RDY_RUN | pds::RDY_REF);
+        assert_eq!(inputs[1] as i16, -0x3000);
+        // The PLC stops: fail-safe STOP is OFF1 here, and the drive stops.
+        Application::fail_safe(&mut app, Instant::from_millis(5), FailSafeReason::ClearData);
+        app.service(Instant::from_millis(5));
+        assert!(!app.drive().running());
     }
 
     #[test]

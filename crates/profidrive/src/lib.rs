@@ -7,6 +7,7 @@
 //! - [`codes`]: the vendor's function codes (F0.29 is 0xF029).
 //! - [`pkw`]: the vendor parameter channel.
 //! - [`words`]: the vendor control and status words.
+//! - [`profile`]: the PROFIdrive state machine and its translation to the vendor words.
 //! - [`drive`]: the drive as the application sees it, and the error and fault codes.
 //! - [`app`]: [`ProfidriveApp`], dp-slave's `Application`.
 //! - [`gsd`]: the device's GSD file.
@@ -22,6 +23,7 @@ pub mod gsd;
 pub mod pkw;
 pub mod ppo;
 pub mod prm;
+pub mod profile;
 pub mod testing;
 pub mod words;
 

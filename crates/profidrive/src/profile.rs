@@ -1,0 +1,328 @@
+//! The PROFIdrive profile of seed 004: its control word (parameter 967, table 7), its status
+//! word (parameter 968, table 8), the state machine between them, and the translation to and
+//! from the vendor words the drive behind the adapter speaks (seed 000).
+//!
+//! ```text
+//!             OFF2 or OFF3 (from any state)          fault (from any state)
+//! SWITCH-ON INHIBIT --OFF2=1, OFF3=1, ON=0--> READY TO SWITCH ON --ON=1--> READY TO OPERATE
+//!        ^                                          ^    OFF1 (ON=0)          | ENABLE_OPERATION=1
+//!        | RESET 0->1                               +---------------------- OPERATION ENABLED
+//!      FAULT
+//! ```
+//! References: REF and ACT are signed, 0x4000 (16384) is the rated speed of the motor, a
+//! negative value runs in reverse (seed 004, "给定值"). The drive's frequency is unsigned with
+//! the direction in the vendor control word; `rated` is the drive's value that 0x4000 means.
+
+use crate::words::{control as vendor, status as vendor_status};
+
+/// Control word bits (table 7).
+pub mod control {
+    pub const ON: u16 = 1 << 0;
+    pub const NO_OFF2: u16 = 1 << 1;
+    pub const NO_OFF3: u16 = 1 << 2;
+    pub const OPERATION_ENABLE: u16 = 1 << 3;
+    /// 0: ramp function generator output forced to zero (stop by the selected mode).
+    pub const RAMP_OUT_ENABLE: u16 = 1 << 4;
+    /// 0: ramp held.
+    pub const RAMP_ACCELERATOR_ENABLE: u16 = 1 << 5;
+    /// 0: ramp input forced to zero.
+    pub const RAMP_INPUT_ENABLE: u16 = 1 << 6;
+    /// Fault reset on 0 -> 1.
+    pub const RESET: u16 = 1 << 7;
+    pub const INCHING_1: u16 = 1 << 8;
+    pub const INCHING_2: u16 = 1 << 9;
+    pub const REMOTE_CMD: u16 = 1 << 10;
+}
+
+/// Status word bits (table 8).
+pub mod status {
+    pub const RDY_ON: u16 = 1 << 0;
+    pub const RDY_RUN: u16 = 1 << 1;
+    pub const RDY_REF: u16 = 1 << 2;
+    pub const TRIPPED: u16 = 1 << 3;
+    pub const OFF_2_STA: u16 = 1 << 4;
+    pub const OFF_3_STA: u16 = 1 << 5;
+    pub const SWC_ON_INHIB: u16 = 1 << 6;
+    pub const ALARM: u16 = 1 << 7;
+    pub const AT_SETPOINT: u16 = 1 << 8;
+    pub const REMOTE: u16 = 1 << 9;
+    pub const ABOVE_LIMIT: u16 = 1 << 10;
+}
+
+/// 0x4000: the rated speed.
+pub const RATED: i32 = 0x4000;
+
+/// The states of figure 9.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DriveState {
+    SwitchOnInhibit,
+    ReadyToSwitchOn,
+    ReadyToOperate,
+    OperationEnabled,
+    Fault,
+}
+
+/// The state machine and the translation. One instance per configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Profile {
+    pub state: DriveState,
+    /// The control word and reference in force (REMOTE_CMD=0 may keep the previous ones).
+    control_word: u16,
+    reference: i16,
+    previous_control: u16,
+}
+
+impl Default for Profile {
+    fn default() -> Self {
+        Profile {
+            state: DriveState::SwitchOnInhibit,
+            control_word: 0,
+            reference: 0,
+            previous_control: 0,
+        }
+    }
+}
+
+/// What the drive gets: its vendor control word and its (unsigned) frequency reference.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ToDrive {
+    pub control_word: u16,
+    pub reference: u16,
+}
+
+impl Profile {
+    /// Takes the master's control word and reference, steps the state machine with the drive's
+    /// latest vendor status word, and says what the drive gets.
+    pub fn command(&mut self, cw: u16, reference: i16, drive_status: u16, rated: u16) -> ToDrive {
+        // Table 7, bit 10: without REMOTE_CMD a non-zero frame keeps the previous command; an
+        // all-zero one is accepted (fieldbus control allowed).
+        if cw & control::REMOTE_CMD != 0 || (cw == 0 && reference == 0) {
+            self.control_word = cw;
+            self.reference = reference;
+        }
+        let cw = self.control_word;
+        let reset = cw & control::RESET != 0 && self.previous_control & control::RESET == 0;
+        self.previous_control = cw;
+        self.step(cw, reset, drive_status & vendor_status::FAULT != 0);
+        self.to_drive(rated)
+    }
+
+    fn step(&mut self, cw: u16, reset: bool, fault: bool) {
+        use DriveState::*;
+        let off2 = cw & control::NO_OFF2 == 0;
+        let off3 = cw & control::NO_OFF3 == 0;
+        let on = cw & control::ON != 0;
+        let enable = cw & control::OPERATION_ENABLE != 0;
+        self.state = match self.state {
+            _ if fault && self.state != Fault => Fault,
+            Fault if reset && !fault => SwitchOnInhibit,
+            Fault => Fault,
+            _ if off2 || off3 => SwitchOnInhibit,
+            SwitchOnInhibit if !on => ReadyToSwitchOn,
+            SwitchOnInhibit => SwitchOnInhibit,
+            ReadyToSwitchOn if on => ReadyToOperate,
+            ReadyToSwitchOn => ReadyToSwitchOn,
+            ReadyToOperate | OperationEnabled if !on => ReadyToSwitchOn,
+            ReadyToOperate | OperationEnabled if enable => OperationEnabled,
+            ReadyToOperate | OperationEnabled => ReadyToOperate,
+        };
+    }
+
+    fn to_drive(&self, rated: u16) -> ToDrive {
+        let cw = self.control_word;
+        let mut word = vendor::REMOTE;
+        if cw & control::NO_OFF2 == 0 {
+            word |= vendor::COAST_STOP;
+        }
+        if cw & control::NO_OFF3 == 0 {
+            word |= vendor::QUICK_STOP;
+        }
+        if matches!(
+            self.state,
+            DriveState::ReadyToOperate | DriveState::OperationEnabled
+        ) {
+            word |= vendor::RUN_ENABLE | vendor::START_ENABLE;
+        }
+        if self.state == DriveState::OperationEnabled && cw & control::RAMP_OUT_ENABLE != 0 {
+            word |= vendor::RUN;
+        }
+        if cw & control::RAMP_ACCELERATOR_ENABLE == 0 {
+            word |= vendor::RAMP_HOLD;
+        }
+        if cw & control::RAMP_INPUT_ENABLE == 0 {
+            word |= vendor::RAMP_INPUT_ZERO;
+        }
+        if self.reference < 0 {
+            word |= vendor::REVERSE;
+        }
+        if cw & control::RESET != 0 {
+            word |= vendor::FAULT_RESET;
+        }
+        let magnitude = i32::from(self.reference).unsigned_abs();
+        let reference =
+            (magnitude * u32::from(rated) / RATED as u32).min(u32::from(u16::MAX)) as u16;
+        ToDrive {
+            control_word: word,
+            reference,
+        }
+    }
+
+    /// The status word for the master, from the state and the drive's vendor status word.
+    pub fn status_word(&self, drive_status: u16) -> u16 {
+        use DriveState::*;
+        let cw = self.control_word;
+        let mut sw = 0;
+        match self.state {
+            SwitchOnInhibit => sw |= status::SWC_ON_INHIB,
+            ReadyToSwitchOn => sw |= status::RDY_ON,
+            ReadyToOperate => sw |= status::RDY_ON | status::RDY_RUN,
+            OperationEnabled => sw |= status::RDY_ON | status::RDY_RUN | status::RDY_REF,
+            Fault => sw |= status::TRIPPED,
+        }
+        if cw & control::NO_OFF2 != 0 {
+            sw |= status::OFF_2_STA;
+        }
+        if cw & control::NO_OFF3 != 0 {
+            sw |= status::OFF_3_STA;
+        }
+        if drive_status & vendor_status::WARNING != 0 {
+            sw |= status::ALARM;
+        }
+        if drive_status & vendor_status::AT_SETPOINT != 0 && self.state == OperationEnabled {
+            sw |= status::AT_SETPOINT;
+        }
+        if drive_status & vendor_status::COMMAND_FROM_BUS != 0 {
+            sw |= status::REMOTE;
+        }
+        sw
+    }
+
+    /// ACT for the master: the drive's unsigned frequency, scaled to 0x4000 = rated, negative
+    /// while the drive runs in reverse.
+    pub fn actual(&self, drive_status: u16, frequency: u16, rated: u16) -> i16 {
+        if rated == 0 {
+            return 0;
+        }
+        let scaled = (i32::from(frequency) * RATED / i32::from(rated)).min(i32::from(i16::MAX));
+        if drive_status & vendor_status::REVERSE != 0 {
+            -scaled as i16
+        } else {
+            scaled as i16
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use DriveState::*;
+
+    const RATED_50HZ: u16 = 5000;
+    const OFF: u16 = control::NO_OFF2 | control::NO_OFF3 | control::REMOTE_CMD;
+    const RUN: u16 = OFF
+        | control::ON
+        | control::OPERATION_ENABLE
+        | control::RAMP_OUT_ENABLE
+        | control::RAMP_ACCELERATOR_ENABLE
+        | control::RAMP_INPUT_ENABLE;
+
+    #[test]
+    fn table_7_start_sequence_to_operation_enabled() {
+        let mut p = Profile::default();
+        assert_eq!(p.state, SwitchOnInhibit);
+        assert_eq!(
+            p.status_word(0) & status::SWC_ON_INHIB,
+            status::SWC_ON_INHIB
+        );
+        p.command(OFF, 0, 0, RATED_50HZ);
+        assert_eq!(p.state, ReadyToSwitchOn);
+        assert_eq!(p.status_word(0) & 0x7, status::RDY_ON);
+        p.command(OFF | control::ON, 0, 0, RATED_50HZ);
+        assert_eq!(p.state, ReadyToOperate);
+        let d = p.command(RUN, 0x2000, 0, RATED_50HZ);
+        assert_eq!(p.state, OperationEnabled);
+        assert_eq!(p.status_word(0) & 0x7, 0x7);
+        // Half the rated speed forward: 25.00 Hz, run command, no reverse.
+        assert_eq!(d.reference, 2500);
+        assert_eq!(d.control_word & vendor::RUN, vendor::RUN);
+        assert_eq!(d.control_word & vendor::REVERSE, 0);
+    }
+
+    #[test]
+    fn off1_off2_off3_and_reverse() {
+        let mut p = Profile::default();
+        for cw in [OFF, OFF | control::ON, RUN] {
+            p.command(cw, -0x4000, 0, RATED_50HZ);
+        }
+        let d = p.command(RUN, -0x4000, 0, RATED_50HZ);
+        assert_eq!(
+            (d.reference, d.control_word & vendor::REVERSE),
+            (5000, vendor::REVERSE)
+        );
+        // OFF1: ramp stop, back to READY TO SWITCH ON.
+        let d = p.command(RUN & !control::ON, 0, 0, RATED_50HZ);
+        assert_eq!(p.state, ReadyToSwitchOn);
+        assert_eq!(d.control_word & vendor::RUN, 0);
+        // OFF2: coast stop, SWITCH-ON INHIBIT, OFF_2_STA cleared.
+        for cw in [OFF | control::ON, RUN] {
+            p.command(cw, 0, 0, RATED_50HZ);
+        }
+        let d = p.command(RUN & !control::NO_OFF2, 0, 0, RATED_50HZ);
+        assert_eq!(p.state, SwitchOnInhibit);
+        assert_eq!(d.control_word & vendor::COAST_STOP, vendor::COAST_STOP);
+        assert_eq!(p.status_word(0) & status::OFF_2_STA, 0);
+        // OFF3: quick stop.
+        let d = p.command(RUN & !control::NO_OFF3, 0, 0, RATED_50HZ);
+        assert_eq!(d.control_word & vendor::QUICK_STOP, vendor::QUICK_STOP);
+        assert_eq!(p.state, SwitchOnInhibit);
+    }
+
+    #[test]
+    fn fault_and_reset_on_a_rising_edge() {
+        let mut p = Profile::default();
+        for cw in [OFF, OFF | control::ON, RUN] {
+            p.command(cw, 0x4000, 0, RATED_50HZ);
+        }
+        p.command(RUN, 0x4000, vendor_status::FAULT, RATED_50HZ);
+        assert_eq!(p.state, Fault);
+        assert_eq!(
+            p.status_word(vendor_status::FAULT) & status::TRIPPED,
+            status::TRIPPED
+        );
+        // RESET held high while the fault is still there does nothing; its 0 -> 1 passes to
+        // the drive, and once the drive is clear the state machine leaves FAULT.
+        let d = p.command(RUN | control::RESET, 0, vendor_status::FAULT, RATED_50HZ);
+        assert_eq!(d.control_word & vendor::FAULT_RESET, vendor::FAULT_RESET);
+        assert_eq!(p.state, Fault);
+        p.command(RUN, 0, 0, RATED_50HZ);
+        p.command(RUN | control::RESET, 0, 0, RATED_50HZ);
+        assert_eq!(p.state, SwitchOnInhibit);
+    }
+
+    #[test]
+    fn remote_cmd_of_table_7() {
+        let mut p = Profile::default();
+        for cw in [OFF, OFF | control::ON, RUN] {
+            p.command(cw, 0x1000, 0, RATED_50HZ);
+        }
+        // Without REMOTE_CMD a non-zero frame keeps the previous command and reference.
+        let d = p.command(control::ON, 0x3000, 0, RATED_50HZ);
+        assert_eq!(p.state, OperationEnabled);
+        assert_eq!(d.reference, 1250);
+        // An all-zero frame is taken.
+        p.command(0, 0, 0, RATED_50HZ);
+        assert_eq!(p.state, SwitchOnInhibit);
+    }
+
+    #[test]
+    fn actual_value_scaling_of_seed_004() {
+        let p = Profile::default();
+        // 0x4000 = rated speed; reverse is negative.
+        assert_eq!(p.actual(0, 5000, RATED_50HZ), 0x4000);
+        assert_eq!(p.actual(0, 2500, RATED_50HZ), 0x2000);
+        assert_eq!(p.actual(vendor_status::REVERSE, 2500, RATED_50HZ), -0x2000);
+        assert_eq!(p.actual(0, 20000, RATED_50HZ), i16::MAX);
+    }
+}

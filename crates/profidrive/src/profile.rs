@@ -106,7 +106,7 @@ impl Profile {
         let reset = cw & control::RESET != 0 && self.previous_control & control::RESET == 0;
         self.previous_control = cw;
         self.step(cw, reset, drive_status & vendor_status::FAULT != 0);
-        self.to_drive(rated)
+        self.drive_command(rated)
     }
 
     fn step(&mut self, cw: u16, reset: bool, fault: bool) {
@@ -130,7 +130,7 @@ impl Profile {
         };
     }
 
-    fn to_drive(&self, rated: u16) -> ToDrive {
+    fn drive_command(&self, rated: u16) -> ToDrive {
         let cw = self.control_word;
         let mut word = vendor::REMOTE;
         if cw & control::NO_OFF2 == 0 {

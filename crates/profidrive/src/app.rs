@@ -13,12 +13,16 @@
 //! it does not know a vendor's control word; seed 000's words are known here, so STOP stops.
 //! The next outputs from the master end the fail-safe.
 
+use crate::codes::FunctionCode;
+use crate::drive::FaultRecord;
 use crate::drive::{Drive, DriveError, PZD1_LINK_ERROR};
+use crate::pd_params::{pzd_target, Frame, Parameters, FAULT_SUBINDICES};
 use crate::pkw::{PkwServer, PKW_BYTES};
 use crate::ppo::{Ppo, MAX_PZD_WORDS};
 use crate::prm::{ControlZeroMode, FailSafeMode, OperationMode, UserPrm};
 use crate::profile::Profile;
 use crate::words::control;
+use crate::words::status;
 use dp_slave::{Application, FailSafeReason, Instant, IoSizes};
 
 /// Why the outputs are in fail-safe.
@@ -66,6 +70,8 @@ pub struct ProfidriveApp<D> {
     drive_status: u16,
     /// The drive's reference value that 0x4000 (rated speed) means in the PROFIdrive mode.
     rated_reference: u16,
+    /// The PROFIdrive parameters (915 .. 972).
+    params: Parameters,
 }
 
 /// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
@@ -90,7 +96,18 @@ impl<D: Drive> ProfidriveApp<D> {
             profile: Profile::default(),
             drive_status: 0,
             rated_reference: DEFAULT_RATED_REFERENCE,
+            params: Parameters::default(),
         }
+    }
+
+    /// The PROFIdrive parameters.
+    pub fn params(&self) -> &Parameters {
+        &self.params
+    }
+
+    /// For the adapter: 918 (node address), 963 (baud rate), and actions to carry out.
+    pub fn params_mut(&mut self) -> &mut Parameters {
+        &mut self.params
     }
 
     /// The drive's reference value for the rated speed (PROFIdrive mode scaling).
@@ -167,8 +184,18 @@ impl<D: Drive> ProfidriveApp<D> {
         let apply = self.outputs_to_apply();
         let result = self.exchange_with_drive(&apply, words);
         self.pzd_applied = apply;
-        if self.ppo.is_some_and(Ppo::has_pkw) {
-            self.pkw.service(&mut self.drive);
+        if let Some(ppo) = self.ppo.filter(|p| p.has_pkw()) {
+            match self.prm.operation {
+                OperationMode::Vendor => self.pkw.service(&mut self.drive),
+                OperationMode::Profidrive => {
+                    let (params, drive) = (&mut self.params, &mut self.drive);
+                    self.pkw.service_with(|bytes| {
+                        params
+                            .execute(&Frame::decode(bytes), ppo.number(), drive)
+                            .encode()
+                    });
+                }
+            }
         }
         self.note_link(now, result.err());
     }
@@ -185,6 +212,7 @@ impl<D: Drive> ProfidriveApp<D> {
             }
         };
         let profidrive = self.prm.operation == OperationMode::Profidrive;
+        let (targets, sources) = self.pzd_mapping();
         let mut to_drive = *apply;
         if profidrive {
             // PZD1/PZD2 are the PROFIdrive CW and REF: the state machine makes the drive's.
@@ -198,10 +226,13 @@ impl<D: Drive> ProfidriveApp<D> {
             to_drive[1] = d.reference;
         }
         note(self.drive.write_control(to_drive[0]));
-        for (target, value) in self.prm.wr_pzd.iter().zip(&to_drive[1..words]) {
-            note(self.drive.write(*target, *value, false));
+        for (target, value) in targets.iter().zip(&to_drive[1..words]) {
+            if let Some(target) = target {
+                note(self.drive.write(*target, *value, false));
+            }
         }
         let mut from_drive = self.pzd_in;
+        let was_faulted = self.drive_status & status::FAULT != 0;
         match self.drive.read_status() {
             Ok(sw) => {
                 self.drive_status = sw;
@@ -209,18 +240,25 @@ impl<D: Drive> ProfidriveApp<D> {
             }
             Err(e) => note(Err(e)),
         }
-        for (source, value) in self.prm.rd_pzd.iter().zip(&mut from_drive[1..words]) {
-            match self.drive.read(*source) {
-                Ok(v) => *value = v,
-                Err(e) => note(Err(e)),
+        for (source, value) in sources.iter().zip(&mut from_drive[1..words]) {
+            match source.map(|code| self.drive.read(code)) {
+                Some(Ok(v)) => *value = v,
+                Some(Err(e)) => note(Err(e)),
+                None => *value = 0,
             }
         }
+        if !was_faulted && self.drive_status & status::FAULT != 0 {
+            self.record_fault();
+        }
         if profidrive {
+            self.profile.observe(self.drive_status);
             from_drive[0] = self.profile.status_word(self.drive_status);
             from_drive[1] =
                 self.profile
                     .actual(self.drive_status, from_drive[1], self.rated_reference)
                     as u16;
+            self.params.control_word = apply[0];
+            self.params.status_word = from_drive[0];
         }
         self.pzd_in = from_drive;
         match first_error {
@@ -230,6 +268,48 @@ impl<D: Drive> ProfidriveApp<D> {
             }
             None => Ok(()),
         }
+    }
+
+    /// What PZD2..PZD10 write and read. Vendor: the RdPZD/WrPZD table of the user parameters.
+    /// PROFIdrive: PZD2 is REF/ACT on the same registers as the vendor's PZD2, PZD3..PZD10
+    /// follow 915/916 (0 and anything unmappable: nothing).
+    fn pzd_mapping(&self) -> ([Option<FunctionCode>; 9], [Option<FunctionCode>; 9]) {
+        let mut targets = self.prm.wr_pzd.map(Some);
+        let mut sources = self.prm.rd_pzd.map(Some);
+        if self.prm.operation == OperationMode::Profidrive {
+            for i in 1..MAX_PZD_WORDS - 1 {
+                targets[i] = pzd_target(self.params.pzd_out[i + 1]).ok().flatten();
+                sources[i] = pzd_target(self.params.pzd_in[i + 1]).ok().flatten();
+            }
+        }
+        (targets, sources)
+    }
+
+    /// A new drive fault: into the fault buffer (945 codes, 947 numbers, 952 count), the
+    /// newest at sub-index 1 and the older ones moved on by 8 (sub-indices 9, 17, .., 41).
+    fn record_fault(&mut self) {
+        let number = match self
+            .drive
+            .read(FunctionCode(0xDE00))
+            .map(|r| FaultRecord::from_byte(r as u8))
+        {
+            Ok(FaultRecord::Fault(n)) => u16::from(n),
+            _ => 0,
+        };
+        let p = &mut self.params;
+        for slot in (1..FAULT_SUBINDICES.len()).rev() {
+            let (to, from) = (
+                usize::from(FAULT_SUBINDICES[slot]) - 1,
+                usize::from(FAULT_SUBINDICES[slot - 1]) - 1,
+            );
+            p.fault_codes[to] = p.fault_codes[from];
+            p.fault_numbers[to] = p.fault_numbers[from];
+        }
+        // The drive reports Fu.xxx numbers, not DRIVECOM codes: 945 and 947 both hold it.
+        p.fault_codes[0] = number;
+        p.fault_numbers[0] = number;
+        p.fault_count = p.fault_count.saturating_add(1);
+        self.diag_changed = true;
     }
 
     fn note_link(&mut self, now: Instant, error: Option<DriveError>) {
@@ -299,8 +379,12 @@ impl<D: Drive> Application for ProfidriveApp<D> {
         } else {
             outputs
         };
-        for (word, bytes) in self.pzd_out.iter_mut().zip(pzd.chunks_exact(2)) {
-            *word = u16::from_be_bytes([bytes[0], bytes[1]]);
+        // 928 = 0: the PZD part is invalid, new process data is not taken.
+        let pzd_valid = self.prm.operation == OperationMode::Vendor || self.params.pzd_rights != 0;
+        if pzd_valid {
+            for (word, bytes) in self.pzd_out.iter_mut().zip(pzd.chunks_exact(2)) {
+                *word = u16::from_be_bytes([bytes[0], bytes[1]]);
+            }
         }
         self.last_outputs_at = Some(now);
         self.fail_safe = None;
@@ -567,6 +651,82 @@ mod tests {
         Application::fail_safe(&mut app, Instant::from_millis(5), FailSafeReason::ClearData);
         app.service(Instant::from_millis(5));
         assert!(!app.drive().running());
+    }
+
+    /// Outputs of PPO2 (PKW + 6 PZD) as words.
+    fn ppo2(pkw: [u16; 4], pzd: [u16; 6]) -> Vec<u8> {
+        pkw.iter()
+            .chain(&pzd)
+            .flat_map(|w| w.to_be_bytes())
+            .collect()
+    }
+
+    #[test]
+    fn profidrive_pkw_pzd_mapping_and_fault_buffer_through_ppo2() {
+        use crate::pd_params::{request, response};
+        use crate::profile::control as pd;
+        let mut prm = UserPrm::DEFAULT;
+        prm.operation = OperationMode::Profidrive;
+        let mut app = app_with(prm, Ppo::Ppo2);
+        app.drive_mut().set(0xD104, 321);
+        let pke = |label: u16, pnu: u16| label << 12 | pnu;
+        // 915.3 = 1202 (PZD3 out writes 12.02, here FB.02); 916.3 = 2204 (PZD3 in reads D1.04).
+        let run = pd::NO_OFF2 | pd::NO_OFF3 | pd::REMOTE_CMD;
+        let inputs = exchange(
+            &mut app,
+            1,
+            &ppo2([pke(7, 915), 0x0300, 0, 1202], [run, 0, 0, 0, 0, 0]),
+        );
+        assert_eq!((inputs[0] >> 12) as u8, response::ARRAY_WORD);
+        let inputs = exchange(
+            &mut app,
+            2,
+            &ppo2([pke(7, 916), 0x0300, 0, 2204], [run, 0, 777, 0, 0, 0]),
+        );
+        assert_eq!((inputs[0] >> 12) as u8, response::ARRAY_WORD);
+        let inputs = exchange(&mut app, 3, &ppo2([0; 4], [run, 0, 777, 0, 0, 0]));
+        assert_eq!(app.drive().get(0xFB02), 777);
+        assert_eq!(inputs[6], 321);
+        // 929 tells the PPO type.
+        let inputs = exchange(
+            &mut app,
+            4,
+            &ppo2(
+                [pke(u16::from(request::READ), 929), 0, 0, 0],
+                [run, 0, 777, 0, 0, 0],
+            ),
+        );
+        assert_eq!(inputs[3], 2);
+        // A drive fault lands in 945.1 and 952; the status word shows TRIPPED.
+        app.drive_mut().fault = Some(12);
+        let inputs = exchange(
+            &mut app,
+            5,
+            &ppo2([pke(6, 945), 0x0100, 0, 0], [run, 0, 777, 0, 0, 0]),
+        );
+        assert_eq!(
+            inputs[4] & crate::profile::status::TRIPPED,
+            crate::profile::status::TRIPPED
+        );
+        let inputs = exchange(
+            &mut app,
+            6,
+            &ppo2([pke(6, 945), 0x0100, 0, 0], [run, 0, 777, 0, 0, 0]),
+        );
+        assert_eq!(inputs[3], 12);
+        assert_eq!(app.params().fault_count, 1);
+        // 928 = 0: new PZD no longer taken.
+        exchange(
+            &mut app,
+            7,
+            &ppo2([pke(2, 928), 0, 0, 0], [run, 0, 777, 0, 0, 0]),
+        );
+        exchange(
+            &mut app,
+            8,
+            &ppo2([pke(2, 928), 0, 0, 0], [run, 0, 999, 0, 0, 0]),
+        );
+        assert_eq!(app.drive().get(0xFB02), 777);
     }
 
     #[test]

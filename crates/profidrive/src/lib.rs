@@ -6,6 +6,7 @@
 //!   fail-safe values, the PZD mapping.
 //! - [`codes`]: the vendor's function codes (F0.29 is 0xF029).
 //! - [`pkw`]: the vendor parameter channel.
+//! - [`pd_params`]: the PROFIdrive parameter channel and parameters (915 .. 972).
 //! - [`words`]: the vendor control and status words.
 //! - [`profile`]: the PROFIdrive state machine and its translation to the vendor words.
 //! - [`drive`]: the drive as the application sees it, and the error and fault codes.
@@ -20,6 +21,7 @@ pub mod app;
 pub mod codes;
 pub mod drive;
 pub mod gsd;
+pub mod pd_params;
 pub mod pkw;
 pub mod ppo;
 pub mod prm;

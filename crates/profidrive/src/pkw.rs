@@ -9,7 +9,7 @@
 //! way, agree byte for byte (tests below); its typesetting scatters the D1.00 example over two
 //! lines, read here as `10 D1 00 00 00 00 00 00`.
 //!
-//! [`PkwServer`] executes a request once: the same request repeated keeps its answer, and only
+//! [`PkwServer`] (for both profiles) executes a request once: the same request repeated keeps its answer, and only
 //! a changed request starts a new one. A write of the value the drive already holds does not
 //! write (the drive's non-volatile memory wears).
 
@@ -152,10 +152,15 @@ impl PkwServer {
         }
     }
 
-    /// Executes a pending request, if any.
+    /// Executes a pending request of the vendor profile, if any.
     pub fn service(&mut self, drive: &mut impl Drive) {
+        self.service_with(|bytes| execute(drive, &Request::decode(bytes)).encode());
+    }
+
+    /// Executes a pending request, if any, with the profile's `execute`.
+    pub fn service_with(&mut self, execute: impl FnOnce(&[u8; PKW_BYTES]) -> [u8; PKW_BYTES]) {
         if let Some(bytes) = self.pending.take() {
-            self.reply = execute(drive, &Request::decode(&bytes)).encode();
+            self.reply = execute(&bytes);
             self.answered = Some(bytes);
         }
     }

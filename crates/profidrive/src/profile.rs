@@ -169,6 +169,13 @@ impl Profile {
         }
     }
 
+    /// Takes in the drive's status word as it is read: a fault shows at once, not a cycle later.
+    pub fn observe(&mut self, drive_status: u16) {
+        if drive_status & vendor_status::FAULT != 0 {
+            self.state = DriveState::Fault;
+        }
+    }
+
     /// The status word for the master, from the state and the drive's vendor status word.
     pub fn status_word(&self, drive_status: u16) -> u16 {
         use DriveState::*;

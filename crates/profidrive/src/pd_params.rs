@@ -1,0 +1,698 @@
+//! The PROFIdrive profile's parameter channel and the adapter's PROFIdrive parameters
+//! (seed 004: the request and response label tables, the error numbers, table 22).
+//!
+//! ```text
+//! byte   0..1                       2     3         4..7
+//!        AK<<12 | SPM<<11 | PNU     IND   reserved  PWE (a word value in bytes 6..7)
+//! ```
+//! Parameter numbers:
+//! - 915 .. 972: the PROFIdrive parameters below, kept by the adapter.
+//! - Drive parameters xx.yy are numbered xxyy, sent as PNU = high byte and IND = low byte of
+//!   xxyy with request labels 6 and 7 (seed 004's examples: 84.11 = 20DBh, 12.02 = 04B2h). The
+//!   drive behind this adapter is seed 000's, whose parameters are function codes, so groups
+//!   map one to one: xx 1-16 are F0-FF, 21 is D0, 22 is D1, 30 is DE (1.29 is F0.29). Any
+//!   other group is error 0 (illegal parameter number).
+//! - Data sets (PNU 0, IND 1-99) belong to ABB drives; this drive has none: error 0.
+
+use crate::codes::FunctionCode;
+use crate::drive::{Drive, DriveError};
+use crate::pkw::PKW_BYTES;
+use crate::ppo::MAX_PZD_WORDS;
+
+/// Request labels (master to slave).
+pub mod request {
+    pub const NONE: u8 = 0;
+    pub const READ: u8 = 1;
+    pub const WRITE_WORD: u8 = 2;
+    pub const WRITE_DWORD: u8 = 3;
+    pub const READ_ELEMENT: u8 = 4;
+    pub const WRITE_ELEMENT: u8 = 5;
+    pub const READ_ARRAY: u8 = 6;
+    pub const WRITE_ARRAY_WORD: u8 = 7;
+    pub const WRITE_ARRAY_DWORD: u8 = 8;
+    pub const ARRAY_COUNT: u8 = 9;
+}
+
+/// Response labels (slave to master).
+pub mod response {
+    pub const NONE: u8 = 0;
+    pub const WORD: u8 = 1;
+    pub const DWORD: u8 = 2;
+    pub const ELEMENT: u8 = 3;
+    pub const ARRAY_WORD: u8 = 4;
+    pub const ARRAY_DWORD: u8 = 5;
+    pub const ARRAY_COUNT: u8 = 6;
+    pub const ERROR: u8 = 7;
+    pub const NO_PKW_RIGHTS: u8 = 8;
+}
+
+/// Error numbers of response label 7.
+pub mod error {
+    pub const ILLEGAL_PNU: u16 = 0;
+    pub const READ_ONLY: u16 = 1;
+    pub const OUT_OF_RANGE: u16 = 2;
+    pub const BAD_SUBINDEX: u16 = 3;
+    pub const NOT_AN_ARRAY: u16 = 4;
+    pub const WRONG_DATA_TYPE: u16 = 5;
+    pub const OPERATING_STATE: u16 = 17;
+    pub const UNSUPPORTED_REQUEST: u16 = 102;
+    pub const COMMUNICATION_ERROR: u16 = 103;
+    pub const FLASH_WRITE_FAILED: u16 = 110;
+    pub const TIMEOUT: u16 = 111;
+    pub const NOT_MAPPABLE_TO_PZD: u16 = 120;
+}
+
+/// A PROFIdrive PKW frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Frame {
+    pub label: u8,
+    pub pnu: u16,
+    pub index: u8,
+    pub value: u32,
+}
+
+impl Frame {
+    pub fn decode(bytes: &[u8; PKW_BYTES]) -> Frame {
+        let pke = u16::from_be_bytes([bytes[0], bytes[1]]);
+        Frame {
+            label: (pke >> 12) as u8,
+            pnu: pke & 0x07FF,
+            index: bytes[2],
+            value: u32::from_be_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]),
+        }
+    }
+
+    pub fn encode(&self) -> [u8; PKW_BYTES] {
+        let pke = (u16::from(self.label & 0x0F) << 12) | (self.pnu & 0x07FF);
+        let [a, b] = pke.to_be_bytes();
+        let [c, d, e, f] = self.value.to_be_bytes();
+        [a, b, self.index, 0, c, d, e, f]
+    }
+
+    fn reply(&self, label: u8, value: u32) -> Frame {
+        Frame {
+            label,
+            value,
+            ..*self
+        }
+    }
+}
+
+/// The drive parameter a PROFIdrive number xxyy names (see the module docs).
+pub fn drive_parameter(number: u16) -> Option<FunctionCode> {
+    let (group, index) = ((number / 100) as u8, (number % 100) as u8);
+    let bcd = (index / 10) << 4 | (index % 10);
+    let code = match group {
+        1..=16 => FunctionCode::new(0xF0 + group - 1, bcd),
+        21 => FunctionCode::new(0xD0, bcd),
+        22 => FunctionCode::new(0xD1, bcd),
+        30 => FunctionCode::new(0xDE, bcd),
+        _ => return None,
+    };
+    code.kind().map(|_| code)
+}
+
+/// A PZD3-10 mapping value (915/916 and the drive's fieldbus group): 0 unused, 1-99 data
+/// sets (none on this drive), 101-9999 drive parameters, 10000 and up refused.
+pub fn pzd_target(value: u16) -> Result<Option<FunctionCode>, u16> {
+    match value {
+        0 => Ok(None),
+        101..=9999 => drive_parameter(value)
+            .map(Some)
+            .ok_or(error::NOT_MAPPABLE_TO_PZD),
+        _ => Err(error::NOT_MAPPABLE_TO_PZD),
+    }
+}
+
+/// Length of the fault buffer arrays (945, 947, 948).
+pub const FAULT_ARRAY_LEN: usize = 64;
+/// The sub-indices of the fault buffer: the current fault and the five before it.
+pub const FAULT_SUBINDICES: [u8; 6] = [1, 9, 17, 25, 33, 41];
+/// 965: profile number 3, version 2 (seed 004: 0302h).
+pub const PROFILE_NUMBER: u16 = 0x0302;
+
+/// The adapter's PROFIdrive parameters.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Parameters {
+    /// 915: what PZD1..PZD10 out write (index 1-10; PZD1 and PZD2 are CW and REF).
+    pub pzd_out: [u16; MAX_PZD_WORDS],
+    /// 916: what PZD1..PZD10 in read.
+    pub pzd_in: [u16; MAX_PZD_WORDS],
+    /// 918: the node address (takes effect after a restart).
+    pub node_address: u16,
+    /// 919: device system number.
+    pub system_number: [u8; 4],
+    /// 927: PKW write rights (0 read only, 1 read and write).
+    pub pkw_rights: u16,
+    /// 928: PZD rights (0 new PZD ignored, 1 valid).
+    pub pzd_rights: u16,
+    /// 930: operating mode (1 speed control, 8001h torque: refused, error 140).
+    pub operating_mode: u16,
+    /// 933-937: selectors of control word bits 11-15; 939-943: of status word bits 11-15.
+    pub control_bit_selectors: [u16; 5],
+    pub status_bit_selectors: [u16; 5],
+    /// 945 fault codes, 947 fault numbers, 948 fault times (s since), by sub-index.
+    pub fault_codes: [u16; FAULT_ARRAY_LEN],
+    pub fault_numbers: [u16; FAULT_ARRAY_LEN],
+    pub fault_times: [u16; FAULT_ARRAY_LEN],
+    /// 952: faults that happened; writing 0 clears it.
+    pub fault_count: u16,
+    /// 953-960: the current alarm and the seven before it.
+    pub alarms: [u16; 8],
+    /// 961: hardware configuration.
+    pub hardware: [u8; 4],
+    /// 963: the detected baud rate (0 = 12M .. 9 = 9.6k, 255 invalid).
+    pub baud_code: u16,
+    /// 964: the device's Ident_Number.
+    pub ident_number: u16,
+    /// 965: the profile number (seed 004: 0302h, profile 3 version 2).
+    pub profile_number: [u8; 2],
+    /// 967/968: the control and status words in force.
+    pub control_word: u16,
+    pub status_word: u16,
+    /// 970, 971, 972: the last value written (actions fire on 0 -> 1).
+    pub load_record: u16,
+    pub save_record: u16,
+    pub reset: u16,
+    /// Writes to non-volatile memory (a write of the same value does not count).
+    pub flash_writes: u32,
+    /// Actions the adapter must carry out: factory reset (970), save (971), restart (972).
+    pub pending_action: Option<Action>,
+}
+
+/// What a 0 -> 1 of 970, 971 or 972 asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Action {
+    FactoryReset,
+    SaveToFlash,
+    Restart,
+}
+
+impl Default for Parameters {
+    fn default() -> Self {
+        Parameters {
+            pzd_out: [0; MAX_PZD_WORDS],
+            pzd_in: [0; MAX_PZD_WORDS],
+            node_address: 0,
+            system_number: [0; 4],
+            pkw_rights: 1,
+            pzd_rights: 1,
+            operating_mode: 1,
+            control_bit_selectors: [0; 5],
+            status_bit_selectors: [0; 5],
+            fault_codes: [0; FAULT_ARRAY_LEN],
+            fault_numbers: [0; FAULT_ARRAY_LEN],
+            fault_times: [0; FAULT_ARRAY_LEN],
+            fault_count: 0,
+            alarms: [0; 8],
+            hardware: [0; 4],
+            baud_code: 255,
+            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+            profile_number: PROFILE_NUMBER.to_be_bytes(),
+            control_word: 0,
+            status_word: 0,
+            load_record: 0,
+            save_record: 0,
+            reset: 0,
+            flash_writes: 0,
+            pending_action: None,
+        }
+    }
+}
+
+/// Where a parameter lives and how it may be accessed.
+fn rw(value: &mut u16) -> Slot<'_> {
+    Slot::Word {
+        value,
+        writable: true,
+    }
+}
+
+fn ro(value: &mut u16) -> Slot<'_> {
+    Slot::Word {
+        value,
+        writable: false,
+    }
+}
+
+enum Slot<'a> {
+    Word {
+        value: &'a mut u16,
+        writable: bool,
+    },
+    Array {
+        values: &'a mut [u16],
+        writable: bool,
+    },
+    Octets(&'a [u8]),
+}
+
+impl Parameters {
+    fn slot(&mut self, pnu: u16) -> Option<Slot<'_>> {
+        Some(match pnu {
+            915 => Slot::Array {
+                values: &mut self.pzd_out,
+                writable: true,
+            },
+            916 => Slot::Array {
+                values: &mut self.pzd_in,
+                writable: true,
+            },
+            918 => rw(&mut self.node_address),
+            919 => Slot::Octets(&self.system_number),
+            927 => rw(&mut self.pkw_rights),
+            928 => rw(&mut self.pzd_rights),
+            929 => return None, // answered by the caller: the PPO type in use
+            930 => rw(&mut self.operating_mode),
+            933..=937 => rw(&mut self.control_bit_selectors[usize::from(pnu - 933)]),
+            939..=943 => rw(&mut self.status_bit_selectors[usize::from(pnu - 939)]),
+            945 => Slot::Array {
+                values: &mut self.fault_codes,
+                writable: false,
+            },
+            947 => Slot::Array {
+                values: &mut self.fault_numbers,
+                writable: false,
+            },
+            948 => Slot::Array {
+                values: &mut self.fault_times,
+                writable: false,
+            },
+            952 => rw(&mut self.fault_count),
+            953..=960 => ro(&mut self.alarms[usize::from(pnu - 953)]),
+            961 => Slot::Octets(&self.hardware),
+            963 => ro(&mut self.baud_code),
+            964 => ro(&mut self.ident_number),
+            965 => Slot::Octets(&self.profile_number),
+            967 => ro(&mut self.control_word),
+            968 => ro(&mut self.status_word),
+            970 => rw(&mut self.load_record),
+            971 => rw(&mut self.save_record),
+            972 => rw(&mut self.reset),
+            _ => return None,
+        })
+    }
+
+    /// Checks a written value; `Err` is the error number.
+    fn check_write(pnu: u16, index: u8, value: u16) -> Result<(), u16> {
+        match pnu {
+            915 | 916 => match index {
+                // PZD1 and PZD2 are fixed: CW/SW and REF/ACT.
+                1 | 2 => Err(error::NOT_MAPPABLE_TO_PZD),
+                _ => pzd_target(value).map(|_| ()),
+            },
+            927 | 928 if value > 1 => Err(error::OUT_OF_RANGE),
+            930 if value == 0x8001 => Err(140),
+            930 if value != 1 => Err(error::OUT_OF_RANGE),
+            918 if value > u16::from(dp_consts::MAX_STATION_ADDRESS) => Err(error::OUT_OF_RANGE),
+            933..=937 if value > 5 => Err(error::OUT_OF_RANGE),
+            939..=943 if value > 3 => Err(error::OUT_OF_RANGE),
+            952 if value != 0 => Err(error::OUT_OF_RANGE),
+            970..=972 if value > 1 => Err(error::OUT_OF_RANGE),
+            _ => Ok(()),
+        }
+    }
+
+    /// Executes one request. `ppo_number` answers 929; `drive` serves drive parameters.
+    pub fn execute(&mut self, request: &Frame, ppo_number: u8, drive: &mut impl Drive) -> Frame {
+        use self::request as rq;
+        let err = |e: u16| request.reply(response::ERROR, u32::from(e));
+        let label = request.label;
+        if label == rq::NONE {
+            return Frame {
+                label: response::NONE,
+                pnu: 0,
+                index: 0,
+                value: 0,
+            };
+        }
+        let writes = matches!(
+            label,
+            rq::WRITE_WORD
+                | rq::WRITE_DWORD
+                | rq::WRITE_ELEMENT
+                | rq::WRITE_ARRAY_WORD
+                | rq::WRITE_ARRAY_DWORD
+        );
+        if writes && self.pkw_rights == 0 && request.pnu != 927 {
+            return request.reply(response::NO_PKW_RIGHTS, 0);
+        }
+        if request.pnu < 900 {
+            return self.drive_request(request, drive);
+        }
+        if request.pnu == 929 {
+            return match label {
+                rq::READ => request.reply(response::WORD, u32::from(ppo_number)),
+                rq::WRITE_WORD | rq::WRITE_DWORD => err(error::READ_ONLY),
+                _ => err(error::NOT_AN_ARRAY),
+            };
+        }
+        let Some(slot) = self.slot(request.pnu) else {
+            return err(error::ILLEGAL_PNU);
+        };
+        match (label, slot) {
+            (rq::READ, Slot::Word { value, .. }) => {
+                request.reply(response::WORD, u32::from(*value))
+            }
+            (rq::READ, Slot::Octets(octets)) => {
+                let mut v = [0u8; 4];
+                v[4 - octets.len()..].copy_from_slice(octets);
+                request.reply(
+                    if octets.len() > 2 {
+                        response::DWORD
+                    } else {
+                        response::WORD
+                    },
+                    u32::from_be_bytes(v),
+                )
+            }
+            (rq::READ_ARRAY, Slot::Array { values, .. }) => {
+                match values.get(usize::from(request.index).wrapping_sub(1)) {
+                    Some(v) => request.reply(response::ARRAY_WORD, u32::from(*v)),
+                    None => err(error::BAD_SUBINDEX),
+                }
+            }
+            (rq::ARRAY_COUNT, Slot::Array { values, .. }) => {
+                request.reply(response::ARRAY_COUNT, values.len() as u32)
+            }
+            (rq::WRITE_WORD, Slot::Word { value, writable }) => {
+                if !writable {
+                    return err(error::READ_ONLY);
+                }
+                let new = request.value as u16;
+                if let Err(e) = Self::check_write(request.pnu, 0, new) {
+                    return err(e);
+                }
+                let old = *value;
+                if old != new {
+                    *value = new;
+                    self.flash_writes += 1;
+                }
+                if old == 0 && new == 1 {
+                    self.pending_action = match request.pnu {
+                        970 => Some(Action::FactoryReset),
+                        971 => Some(Action::SaveToFlash),
+                        972 => Some(Action::Restart),
+                        _ => self.pending_action,
+                    };
+                }
+                request.reply(response::WORD, u32::from(new))
+            }
+            (rq::WRITE_ARRAY_WORD, Slot::Array { values, writable }) => {
+                let i = usize::from(request.index).wrapping_sub(1);
+                if i >= values.len() {
+                    return err(error::BAD_SUBINDEX);
+                }
+                if !writable {
+                    return err(error::READ_ONLY);
+                }
+                let new = request.value as u16;
+                if let Err(e) = Self::check_write(request.pnu, request.index, new) {
+                    return err(e);
+                }
+                if values[i] != new {
+                    values[i] = new;
+                    self.flash_writes += 1;
+                }
+                request.reply(response::ARRAY_WORD, u32::from(new))
+            }
+            (rq::READ_ELEMENT | rq::WRITE_ELEMENT | rq::WRITE_DWORD | rq::WRITE_ARRAY_DWORD, _) => {
+                err(error::UNSUPPORTED_REQUEST)
+            }
+            (rq::READ_ARRAY | rq::WRITE_ARRAY_WORD | rq::ARRAY_COUNT, _) => {
+                err(error::NOT_AN_ARRAY)
+            }
+            (rq::READ | rq::WRITE_WORD, Slot::Array { .. }) => err(error::WRONG_DATA_TYPE),
+            (rq::WRITE_WORD, Slot::Octets(_)) => err(error::READ_ONLY),
+            _ => err(error::UNSUPPORTED_REQUEST),
+        }
+    }
+
+    /// Drive parameters: PNU and IND are the high and low byte of xxyy; data sets have none.
+    fn drive_request(&mut self, request: &Frame, drive: &mut impl Drive) -> Frame {
+        use self::request as rq;
+        let err = |e: u16| request.reply(response::ERROR, u32::from(e));
+        let number = (request.pnu << 8) | u16::from(request.index);
+        let Some(code) = drive_parameter(number) else {
+            return err(error::ILLEGAL_PNU);
+        };
+        let link = |e: DriveError| match e {
+            DriveError::NoAnswer => error::TIMEOUT,
+            DriveError::BusNoise | DriveError::CrcError => error::COMMUNICATION_ERROR,
+            DriveError::MemoryFault => error::FLASH_WRITE_FAILED,
+            DriveError::InvalidData => error::OUT_OF_RANGE,
+            DriveError::IllegalAddress => error::ILLEGAL_PNU,
+            DriveError::AccessRestricted => error::READ_ONLY,
+            DriveError::IllegalOperation | DriveError::DriveFault => error::OPERATING_STATE,
+        };
+        match request.label {
+            rq::READ_ARRAY | rq::READ => match drive.read(code) {
+                Ok(v) => request.reply(response::ARRAY_WORD, u32::from(v)),
+                Err(e) => err(link(e)),
+            },
+            rq::WRITE_ARRAY_WORD | rq::WRITE_WORD => {
+                if !code.is_writable() {
+                    return err(error::READ_ONLY);
+                }
+                let new = request.value as u16;
+                let unchanged = drive.read(code).is_ok_and(|v| v == new);
+                match if unchanged {
+                    Ok(())
+                } else {
+                    drive.write(code, new, true)
+                } {
+                    Ok(()) => request.reply(response::ARRAY_WORD, u32::from(new)),
+                    Err(e) => err(link(e)),
+                }
+            }
+            _ => err(error::UNSUPPORTED_REQUEST),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::MockDrive;
+
+    fn run(
+        p: &mut Parameters,
+        drive: &mut MockDrive,
+        label: u8,
+        pnu: u16,
+        index: u8,
+        value: u32,
+    ) -> Frame {
+        p.execute(
+            &Frame {
+                label,
+                pnu,
+                index,
+                value,
+            },
+            1,
+            drive,
+        )
+    }
+
+    #[test]
+    fn seed_004_example_1_and_2_drive_parameter_numbers() {
+        // 84.11 x 100 = 8411 = 20DBh: PNU 20h, IND DBh. 12.02 x 100 = 1202 = 04B2h.
+        assert_eq!(8411u16.to_be_bytes(), [0x20, 0xDB]);
+        assert_eq!(1202u16.to_be_bytes(), [0x04, 0xB2]);
+        // Here 12.02 is the seed-000 drive's FB.02, 1.29 its F0.29.
+        assert_eq!(drive_parameter(1202), Some(FunctionCode(0xFB02)));
+        assert_eq!(drive_parameter(129), Some(FunctionCode(0xF029)));
+        assert_eq!(drive_parameter(2100), Some(FunctionCode(0xD000)));
+        assert_eq!(drive_parameter(3025), Some(FunctionCode(0xDE25)));
+        assert_eq!(drive_parameter(8411), None);
+        let mut p = Parameters::default();
+        let mut drive = MockDrive::default();
+        drive.set(0xF029, 0x1234);
+        // 1.29 is 129 = 0081h: PNU 0, IND 81h (IND 1-99 of PNU 0 would be a data set).
+        let r = run(&mut p, &mut drive, request::READ_ARRAY, 0x00, 0x81, 0);
+        assert_eq!((r.label, r.value), (response::ARRAY_WORD, 0x1234));
+        let r = run(
+            &mut p,
+            &mut drive,
+            request::WRITE_ARRAY_WORD,
+            0x04,
+            0xB2,
+            300,
+        );
+        assert_eq!((r.label, r.value), (response::ARRAY_WORD, 300));
+        assert_eq!(drive.get(0xFB02), 300);
+        // Writing the same value again does not wear the drive's memory.
+        run(
+            &mut p,
+            &mut drive,
+            request::WRITE_ARRAY_WORD,
+            0x04,
+            0xB2,
+            300,
+        );
+        assert_eq!(drive.persistent_writes, 1);
+        // 84.11 is no parameter of this drive; data sets neither.
+        assert_eq!(
+            run(&mut p, &mut drive, request::READ_ARRAY, 0x20, 0xDB, 0).label,
+            response::ERROR
+        );
+        assert_eq!(
+            run(&mut p, &mut drive, request::READ_ARRAY, 0, 1, 0).value,
+            u32::from(error::ILLEGAL_PNU)
+        );
+    }
+
+    #[test]
+    fn seed_004_example_3_4_read_918_and_write_971() {
+        let mut p = Parameters {
+            node_address: 2,
+            ..Parameters::default()
+        };
+        let mut drive = MockDrive::default();
+        let r = run(&mut p, &mut drive, request::READ, 918, 0, 0);
+        assert_eq!((r.label, r.value), (response::WORD, 2));
+        let r = run(&mut p, &mut drive, request::WRITE_WORD, 971, 0, 1);
+        assert_eq!((r.label, r.value), (response::WORD, 1));
+        assert_eq!(p.pending_action, Some(Action::SaveToFlash));
+    }
+
+    #[test]
+    fn seed_004_example_5_fault_buffer_945() {
+        let mut p = Parameters::default();
+        p.fault_codes[0] = 0x2300;
+        let mut drive = MockDrive::default();
+        let r = run(&mut p, &mut drive, request::READ_ARRAY, 945, 1, 0);
+        assert_eq!((r.label, r.value), (response::ARRAY_WORD, 0x2300));
+        for sub in FAULT_SUBINDICES {
+            assert_eq!(
+                run(&mut p, &mut drive, request::READ_ARRAY, 945, sub, 0).label,
+                response::ARRAY_WORD
+            );
+        }
+        assert_eq!(
+            run(&mut p, &mut drive, request::ARRAY_COUNT, 947, 0, 0).value,
+            64
+        );
+        assert_eq!(
+            run(&mut p, &mut drive, request::READ_ARRAY, 945, 65, 0).value,
+            u32::from(error::BAD_SUBINDEX)
+        );
+        assert_eq!(
+            run(&mut p, &mut drive, request::WRITE_ARRAY_WORD, 945, 1, 0).value,
+            u32::from(error::READ_ONLY)
+        );
+    }
+
+    #[test]
+    fn seed_004_examples_6_7_pzd_mapping_915_916() {
+        let mut p = Parameters::default();
+        let mut drive = MockDrive::default();
+        // PZD3 out writes 12.02, PZD3 in reads 1.04.
+        assert_eq!(
+            run(&mut p, &mut drive, request::WRITE_ARRAY_WORD, 915, 3, 1202).label,
+            response::ARRAY_WORD
+        );
+        assert_eq!(
+            run(&mut p, &mut drive, request::WRITE_ARRAY_WORD, 916, 3, 104).label,
+            response::ARRAY_WORD
+        );
+        assert_eq!((p.pzd_out[2], p.pzd_in[2]), (1202, 104));
+        // 10000 and up, data sets of another drive, PZD1/PZD2: refused with 120.
+        for (index, value) in [(4, 10000), (4, 50), (1, 1202), (2, 1202)] {
+            let r = run(
+                &mut p,
+                &mut drive,
+                request::WRITE_ARRAY_WORD,
+                915,
+                index,
+                value,
+            );
+            assert_eq!(
+                (r.label, r.value),
+                (response::ERROR, u32::from(error::NOT_MAPPABLE_TO_PZD))
+            );
+        }
+        assert_eq!(pzd_target(0), Ok(None));
+    }
+
+    #[test]
+    fn response_labels_and_error_numbers() {
+        let mut p = Parameters::default();
+        let mut drive = MockDrive::default();
+        let e = |f: Frame| (f.label, f.value as u16);
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::READ, 999, 0, 0)),
+            (response::ERROR, error::ILLEGAL_PNU)
+        );
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::WRITE_WORD, 968, 0, 1)),
+            (response::ERROR, error::READ_ONLY)
+        );
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::WRITE_WORD, 927, 0, 2)),
+            (response::ERROR, error::OUT_OF_RANGE)
+        );
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::READ_ELEMENT, 918, 0, 0)),
+            (response::ERROR, error::UNSUPPORTED_REQUEST)
+        );
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::READ_ARRAY, 918, 1, 0)),
+            (response::ERROR, error::NOT_AN_ARRAY)
+        );
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::READ, 915, 0, 0)),
+            (response::ERROR, error::WRONG_DATA_TYPE)
+        );
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::WRITE_WORD, 930, 0, 0x8001)),
+            (response::ERROR, 140)
+        );
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::READ, 929, 0, 0)),
+            (response::WORD, 1)
+        );
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::READ, 965, 0, 0)).0,
+            response::WORD
+        );
+        // 927 = 0: PKW writes refused with label 8, except to 927 itself.
+        run(&mut p, &mut drive, request::WRITE_WORD, 927, 0, 0);
+        assert_eq!(
+            run(&mut p, &mut drive, request::WRITE_WORD, 918, 0, 5).label,
+            response::NO_PKW_RIGHTS
+        );
+        assert_eq!(
+            run(&mut p, &mut drive, request::WRITE_WORD, 927, 0, 1).label,
+            response::WORD
+        );
+        // The drive link's own failure: 111 (timeout) for no answer, 103 for a bad answer.
+        drive.disconnected = true;
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::READ_ARRAY, 0x00, 0x81, 0)),
+            (response::ERROR, error::TIMEOUT)
+        );
+        drive.disconnected = false;
+        drive.fail_next = Some(DriveError::CrcError);
+        assert_eq!(
+            e(run(&mut p, &mut drive, request::READ_ARRAY, 0x00, 0x81, 0)),
+            (response::ERROR, error::COMMUNICATION_ERROR)
+        );
+    }
+
+    #[test]
+    fn frames_round_trip() {
+        let f = Frame {
+            label: 7,
+            pnu: 0x3B3,
+            index: 0x19,
+            value: 0x0000_2300,
+        };
+        let bytes = f.encode();
+        assert_eq!(bytes, [0x73, 0xB3, 0x19, 0, 0, 0, 0x23, 0x00]);
+        assert_eq!(Frame::decode(&bytes), f);
+    }
+}

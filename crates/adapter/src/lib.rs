@@ -16,6 +16,7 @@
 
 use dp_link::{Led, Leds, NvRecord, SlaveState, Status, ToAdapter};
 use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
+use profidrive::ppo::Ppo;
 
 /// What the storage holds after a factory reset: the commissioning address, changeable.
 pub const FACTORY_DEFAULTS: NvRecord = NvRecord {
@@ -23,19 +24,18 @@ pub const FACTORY_DEFAULTS: NvRecord = NvRecord {
     no_add_chg: false,
 };
 
-/// The six PPO configurations of both manuals: PPO1 F3 F1, PPO2 F3 F5, PPO3 F1, PPO4 F5,
-/// PPO5 F3 F9, PPO6 F9.
+/// The six PPO configurations of both manuals, from `profidrive::ppo`.
 pub const PPO_CONFIGURATIONS: &[&[u8]] = &[
-    &[0xF3, 0xF1],
-    &[0xF3, 0xF5],
-    &[0xF1],
-    &[0xF5],
-    &[0xF3, 0xF9],
-    &[0xF9],
+    Ppo::Ppo1.cfg(),
+    Ppo::Ppo2.cfg(),
+    Ppo::Ppo3.cfg(),
+    Ppo::Ppo4.cfg(),
+    Ppo::Ppo5.cfg(),
+    Ppo::Ppo6.cfg(),
 ];
 
-/// The drive application until the PROFIdrive crate lands: dp-slave's loopback application
-/// (inputs answer outputs with their complement), accepting the six PPO configurations.
+/// The application the firmware runs until the drive link exists (issue 6): dp-slave's loopback
+/// application (inputs answer outputs with their complement), accepting the six PPOs.
 pub fn loopback_app() -> dp_slave::testing::EchoApp {
     dp_slave::testing::EchoApp {
         accepted_cfgs: PPO_CONFIGURATIONS,

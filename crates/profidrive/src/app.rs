@@ -72,6 +72,8 @@ pub struct ProfidriveApp<D> {
     rated_reference: u16,
     /// The PROFIdrive parameters (915 .. 972).
     params: Parameters,
+    /// When each fault of the buffer happened, for 948 (seconds since).
+    fault_at: [Option<Instant>; FAULT_SUBINDICES.len()],
 }
 
 /// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
@@ -97,6 +99,7 @@ impl<D: Drive> ProfidriveApp<D> {
             drive_status: 0,
             rated_reference: DEFAULT_RATED_REFERENCE,
             params: Parameters::default(),
+            fault_at: [None; FAULT_SUBINDICES.len()],
         }
     }
 
@@ -182,7 +185,14 @@ impl<D: Drive> ProfidriveApp<D> {
             return;
         }
         let apply = self.outputs_to_apply();
-        let result = self.exchange_with_drive(&apply, words);
+        let result = self.exchange_with_drive(now, &apply, words);
+        for (at, sub) in self.fault_at.iter().zip(FAULT_SUBINDICES) {
+            if let Some(at) = at {
+                let seconds = (now.micros() - at.micros()) / 1_000_000;
+                self.params.fault_times[usize::from(sub) - 1] =
+                    seconds.min(u64::from(u16::MAX)) as u16;
+            }
+        }
         self.pzd_applied = apply;
         if let Some(ppo) = self.ppo.filter(|p| p.has_pkw()) {
             match self.prm.operation {
@@ -202,6 +212,7 @@ impl<D: Drive> ProfidriveApp<D> {
 
     fn exchange_with_drive(
         &mut self,
+        now: Instant,
         apply: &[u16; MAX_PZD_WORDS],
         words: usize,
     ) -> Result<(), DriveError> {
@@ -248,7 +259,7 @@ impl<D: Drive> ProfidriveApp<D> {
             }
         }
         if !was_faulted && self.drive_status & status::FAULT != 0 {
-            self.record_fault();
+            self.record_fault(now);
         }
         if profidrive {
             self.profile.observe(self.drive_status);
@@ -285,9 +296,9 @@ impl<D: Drive> ProfidriveApp<D> {
         (targets, sources)
     }
 
-    /// A new drive fault: into the fault buffer (945 codes, 947 numbers, 952 count), the
+    /// A new drive fault: into the fault buffer (945 codes, 947 numbers, 948 times, 952 count), the
     /// newest at sub-index 1 and the older ones moved on by 8 (sub-indices 9, 17, .., 41).
-    fn record_fault(&mut self) {
+    fn record_fault(&mut self, now: Instant) {
         let number = match self
             .drive
             .read(FunctionCode(0xDE00))
@@ -309,6 +320,8 @@ impl<D: Drive> ProfidriveApp<D> {
         p.fault_codes[0] = number;
         p.fault_numbers[0] = number;
         p.fault_count = p.fault_count.saturating_add(1);
+        self.fault_at.copy_within(..FAULT_SUBINDICES.len() - 1, 1);
+        self.fault_at[0] = Some(now);
         self.diag_changed = true;
     }
 
@@ -715,6 +728,9 @@ mod tests {
         );
         assert_eq!(inputs[3], 12);
         assert_eq!(app.params().fault_count, 1);
+        // 948.1: seconds since that fault.
+        app.service(Instant::from_millis(3005));
+        assert_eq!(app.params().fault_times[0], 3);
         // 928 = 0: new PZD no longer taken.
         exchange(
             &mut app,

@@ -72,6 +72,8 @@ pub struct Profile {
     control_word: u16,
     reference: i16,
     previous_control: u16,
+    /// RESET rose while in FAULT: the acknowledgement holds until the drive's fault is gone.
+    reset_requested: bool,
 }
 
 impl Default for Profile {
@@ -81,6 +83,7 @@ impl Default for Profile {
             control_word: 0,
             reference: 0,
             previous_control: 0,
+            reset_requested: false,
         }
     }
 }
@@ -115,9 +118,12 @@ impl Profile {
         let off3 = cw & control::NO_OFF3 == 0;
         let on = cw & control::ON != 0;
         let enable = cw & control::OPERATION_ENABLE != 0;
+        if self.state == Fault && reset {
+            self.reset_requested = true;
+        }
         self.state = match self.state {
             _ if fault && self.state != Fault => Fault,
-            Fault if reset && !fault => SwitchOnInhibit,
+            Fault if self.reset_requested && !fault => SwitchOnInhibit,
             Fault => Fault,
             _ if off2 || off3 => SwitchOnInhibit,
             SwitchOnInhibit if !on => ReadyToSwitchOn,
@@ -128,6 +134,9 @@ impl Profile {
             ReadyToOperate | OperationEnabled if enable => OperationEnabled,
             ReadyToOperate | OperationEnabled => ReadyToOperate,
         };
+        if self.state != Fault {
+            self.reset_requested = false;
+        }
     }
 
     fn drive_command(&self, rated: u16) -> ToDrive {
@@ -298,12 +307,14 @@ mod tests {
             p.status_word(vendor_status::FAULT) & status::TRIPPED,
             status::TRIPPED
         );
-        // RESET held high while the fault is still there does nothing; its 0 -> 1 passes to
-        // the drive, and once the drive is clear the state machine leaves FAULT.
+        // Without a RESET edge the fault stays, even once the drive is clear.
+        p.command(RUN, 0, 0, RATED_50HZ);
+        assert_eq!(p.state, Fault);
+        // RESET's 0 -> 1 passes to the drive and is held as an acknowledgement: while the
+        // drive still reports the fault nothing changes; once it is clear, SWITCH-ON INHIBIT.
         let d = p.command(RUN | control::RESET, 0, vendor_status::FAULT, RATED_50HZ);
         assert_eq!(d.control_word & vendor::FAULT_RESET, vendor::FAULT_RESET);
         assert_eq!(p.state, Fault);
-        p.command(RUN, 0, 0, RATED_50HZ);
         p.command(RUN | control::RESET, 0, 0, RATED_50HZ);
         assert_eq!(p.state, SwitchOnInhibit);
     }

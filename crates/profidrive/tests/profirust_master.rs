@@ -59,7 +59,7 @@ fn until(
         }
     }
     panic!(
-        "inputs never satisfied the check: {:04X?}",
+        "outputs {outputs:04X?}: inputs never satisfied the check: {:04X?}",
         words(&bus.pi_i())
     );
 }
@@ -114,4 +114,60 @@ fn ppo1_pkw_read_write_and_fault_reset() {
         |i| i[4] & status::FAULT == 0,
     );
     assert_eq!(bus.slave.app().drive().fault_resets, 1);
+}
+
+#[test]
+fn ppo1_in_the_profidrive_profile() {
+    use profidrive::pd_params::response;
+    use profidrive::prm::OperationMode;
+    use profidrive::profile::{control as pd, status as pds};
+    let mut prm = UserPrm::DEFAULT;
+    prm.operation = OperationMode::Profidrive;
+    let mut bus = Bus::new(
+        Baudrate::B1500000,
+        MasterOptions {
+            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+            user_prm: prm.encode().to_vec(),
+            config: Ppo::Ppo1.cfg().to_vec(),
+        },
+        Config {
+            address: SLAVE,
+            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+            no_add_chg: false,
+            dpv1_status_bytes: false,
+        },
+        ProfidriveApp::new(MockDrive::default()),
+    );
+    bus.service = |slave, now| slave.app_mut().service(now);
+    bus.run_until(Duration::from_secs(2), |b| b.running());
+    let off = pd::NO_OFF2 | pd::NO_OFF3 | pd::REMOTE_CMD;
+    let run = off
+        | pd::ON
+        | pd::OPERATION_ENABLE
+        | pd::RAMP_OUT_ENABLE
+        | pd::RAMP_ACCELERATOR_ENABLE
+        | pd::RAMP_INPUT_ENABLE;
+    // The start sequence of table 7, then half the rated speed.
+    until(&mut bus, &[0, 0, 0, 0, off, 0], |i| i[4] & pds::RDY_ON != 0);
+    until(&mut bus, &[0, 0, 0, 0, off | pd::ON, 0], |i| {
+        i[4] & pds::RDY_RUN != 0
+    });
+    let inputs = until(&mut bus, &[0, 0, 0, 0, run, 0x2000], |i| {
+        i[4] & pds::RDY_REF != 0 && i[5] == 0x2000
+    });
+    assert_eq!(inputs[4] & pds::AT_SETPOINT, pds::AT_SETPOINT);
+    assert_eq!(bus.slave.app().drive().get(SET_FREQUENCY), 2500);
+    // PKW: read 964 (the Ident_Number) with request label 1.
+    let inputs = until(&mut bus, &[0x1000 | 964, 0, 0, 0, run, 0x2000], |i| {
+        i[0] >> 12 == u16::from(response::WORD) && i[0] & 0x7FF == 964
+    });
+    assert_eq!(inputs[3], dp_consts::ADAPTER_IDENT_NUMBER);
+    // A fault trips, a 0 -> 1 of RESET clears it back to SWITCH-ON INHIBIT.
+    bus.slave.app_mut().drive_mut().fault = Some(12);
+    until(&mut bus, &[0, 0, 0, 0, run, 0x2000], |i| {
+        i[4] & pds::TRIPPED != 0
+    });
+    until(&mut bus, &[0, 0, 0, 0, run | pd::RESET, 0x2000], |i| {
+        i[4] & pds::SWC_ON_INHIB != 0
+    });
 }

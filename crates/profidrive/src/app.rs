@@ -165,7 +165,7 @@ impl<D: Drive> ProfidriveApp<D> {
                 pzd[0] = match self.prm.operation {
                     OperationMode::Vendor => pzd[0] & !control::RUN,
                     // OFF1: bit 0 (ON) cleared, ramp down (seed 004 table 7).
-                    OperationMode::Profidrive => pzd[0] & !0x0001,
+                    OperationMode::Profidrive | OperationMode::AbbDrives => pzd[0] & !0x0001,
                 };
                 pzd
             }
@@ -197,7 +197,7 @@ impl<D: Drive> ProfidriveApp<D> {
         if let Some(ppo) = self.ppo.filter(|p| p.has_pkw()) {
             match self.prm.operation {
                 OperationMode::Vendor => self.pkw.service(&mut self.drive),
-                OperationMode::Profidrive => {
+                OperationMode::Profidrive | OperationMode::AbbDrives => {
                     let (params, drive) = (&mut self.params, &mut self.drive);
                     self.pkw.service_with(|bytes| {
                         params
@@ -222,7 +222,8 @@ impl<D: Drive> ProfidriveApp<D> {
                 first_error.get_or_insert(e);
             }
         };
-        let profidrive = self.prm.operation == OperationMode::Profidrive;
+        let profidrive = self.prm.operation.translates();
+        let units = self.prm.operation.rated_units();
         let (targets, sources) = self.pzd_mapping();
         let mut to_drive = *apply;
         if profidrive {
@@ -232,6 +233,7 @@ impl<D: Drive> ProfidriveApp<D> {
                 apply[1] as i16,
                 self.drive_status,
                 self.rated_reference,
+                units,
             );
             to_drive[0] = d.control_word;
             to_drive[1] = d.reference;
@@ -264,10 +266,18 @@ impl<D: Drive> ProfidriveApp<D> {
         if profidrive {
             self.profile.observe(self.drive_status);
             from_drive[0] = self.profile.status_word(self.drive_status);
-            from_drive[1] =
-                self.profile
-                    .actual(self.drive_status, from_drive[1], self.rated_reference)
-                    as u16;
+            let actual = self.profile.actual(
+                self.drive_status,
+                from_drive[1],
+                self.rated_reference,
+                units,
+            );
+            from_drive[1] = actual as u16;
+            // ABOVE_LIMIT (table 8, bit 10): the drive has no supervision limit this adapter
+            // can read, so the limit is the rated speed.
+            if i32::from(actual).abs() >= units {
+                from_drive[0] |= crate::profile::status::ABOVE_LIMIT;
+            }
             self.params.control_word = apply[0];
             self.params.status_word = from_drive[0];
         }
@@ -287,7 +297,7 @@ impl<D: Drive> ProfidriveApp<D> {
     fn pzd_mapping(&self) -> ([Option<FunctionCode>; 9], [Option<FunctionCode>; 9]) {
         let mut targets = self.prm.wr_pzd.map(Some);
         let mut sources = self.prm.rd_pzd.map(Some);
-        if self.prm.operation == OperationMode::Profidrive {
+        if self.prm.operation.translates() {
             for i in 1..MAX_PZD_WORDS - 1 {
                 targets[i] = pzd_target(self.params.pzd_out[i + 1]).ok().flatten();
                 sources[i] = pzd_target(self.params.pzd_in[i + 1]).ok().flatten();
@@ -393,7 +403,7 @@ impl<D: Drive> Application for ProfidriveApp<D> {
             outputs
         };
         // 928 = 0: the PZD part is invalid, new process data is not taken.
-        let pzd_valid = self.prm.operation == OperationMode::Vendor || self.params.pzd_rights != 0;
+        let pzd_valid = !self.prm.operation.translates() || self.params.pzd_rights != 0;
         if pzd_valid {
             for (word, bytes) in self.pzd_out.iter_mut().zip(pzd.chunks_exact(2)) {
                 *word = u16::from_be_bytes([bytes[0], bytes[1]]);

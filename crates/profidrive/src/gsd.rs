@@ -51,7 +51,7 @@ fn fields() -> impl Iterator<Item = Field> {
             name: "Operation mode",
             data_type: "BitArea(4-5)",
             default: prm.operation as u16,
-            range: (0, 1),
+            range: (0, 2),
             offset: 1,
             text: Some(3),
         },
@@ -196,7 +196,14 @@ pub fn write(out: &mut impl Write) -> fmt::Result {
     let texts: [(u8, &[&str]); 3] = [
         (1, &["Stop", "Last speed", "Use fail-safe values"]),
         (2, &["Use frame", "Ignore frame"]),
-        (3, &["PROFIdrive (seed 004)", "Vendor (IOA-B103 words)"]),
+        (
+            3,
+            &[
+                "PROFIdrive (seed 004)",
+                "Vendor (IOA-B103 words)",
+                "ABB Drives (+-20000)",
+            ],
+        ),
     ];
     for (n, values) in texts {
         writeln!(out, "PrmText = {n}")?;

@@ -46,7 +46,7 @@ pub mod response {
     pub const NO_PKW_RIGHTS: u8 = 8;
 }
 
-/// Error numbers of response label 7.
+/// Error numbers of response label 7 (seed 004's response label table).
 pub mod error {
     pub const ILLEGAL_PNU: u16 = 0;
     pub const READ_ONLY: u16 = 1;
@@ -54,12 +54,23 @@ pub mod error {
     pub const BAD_SUBINDEX: u16 = 3;
     pub const NOT_AN_ARRAY: u16 = 4;
     pub const WRONG_DATA_TYPE: u16 = 5;
+    pub const RESET_ONLY: u16 = 6;
+    pub const ELEMENT_READ_ONLY: u16 = 7;
+    pub const NO_DATA_TYPE: u16 = 9;
+    pub const NO_CHANGE_RIGHTS: u16 = 11;
+    pub const TEXT_ARRAY: u16 = 15;
     pub const OPERATING_STATE: u16 = 17;
+    pub const OTHER: u16 = 18;
+    pub const PRODUCT_ID: u16 = 101;
     pub const UNSUPPORTED_REQUEST: u16 = 102;
     pub const COMMUNICATION_ERROR: u16 = 103;
     pub const FLASH_WRITE_FAILED: u16 = 110;
     pub const TIMEOUT: u16 = 111;
     pub const NOT_MAPPABLE_TO_PZD: u16 = 120;
+    pub const NOT_MAPPABLE_TO_PZD_2: u16 = 121;
+    pub const NOT_MAPPABLE_TO_PZD_3: u16 = 123;
+    pub const CONTROL_BIT_TAKEN: u16 = 130;
+    pub const NO_TORQUE_MODE: u16 = 140;
 }
 
 /// A PROFIdrive PKW frame.
@@ -296,15 +307,26 @@ impl Parameters {
     }
 
     /// Checks a written value; `Err` is the error number.
-    fn check_write(pnu: u16, index: u8, value: u16) -> Result<(), u16> {
+    fn check_write(&self, pnu: u16, index: u8, value: u16) -> Result<(), u16> {
         match pnu {
+            // A user-defined control bit can be given to one control-word bit only.
+            933..=937
+                if value != 0
+                    && self
+                        .control_bit_selectors
+                        .iter()
+                        .enumerate()
+                        .any(|(i, v)| *v == value && i != usize::from(pnu - 933)) =>
+            {
+                Err(error::CONTROL_BIT_TAKEN)
+            }
             915 | 916 => match index {
                 // PZD1 and PZD2 are fixed: CW/SW and REF/ACT.
                 1 | 2 => Err(error::NOT_MAPPABLE_TO_PZD),
                 _ => pzd_target(value).map(|_| ()),
             },
             927 | 928 if value > 1 => Err(error::OUT_OF_RANGE),
-            930 if value == 0x8001 => Err(140),
+            930 if value == 0x8001 => Err(error::NO_TORQUE_MODE),
             930 if value != 1 => Err(error::OUT_OF_RANGE),
             918 if value > u16::from(dp_consts::MAX_STATION_ADDRESS) => Err(error::OUT_OF_RANGE),
             933..=937 if value > 5 => Err(error::OUT_OF_RANGE),
@@ -349,6 +371,8 @@ impl Parameters {
                 _ => err(error::NOT_AN_ARRAY),
             };
         }
+        // The value checks look at other parameters, so they run before the slot is borrowed.
+        let value_check = self.check_write(request.pnu, request.index, request.value as u16);
         let Some(slot) = self.slot(request.pnu) else {
             return err(error::ILLEGAL_PNU);
         };
@@ -382,7 +406,7 @@ impl Parameters {
                     return err(error::READ_ONLY);
                 }
                 let new = request.value as u16;
-                if let Err(e) = Self::check_write(request.pnu, 0, new) {
+                if let Err(e) = value_check {
                     return err(e);
                 }
                 let old = *value;
@@ -409,7 +433,7 @@ impl Parameters {
                     return err(error::READ_ONLY);
                 }
                 let new = request.value as u16;
-                if let Err(e) = Self::check_write(request.pnu, request.index, new) {
+                if let Err(e) = value_check {
                     return err(e);
                 }
                 if values[i] != new {

@@ -8,7 +8,7 @@
 //! | offset | bytes | field | source |
 //! |---|---|---|---|
 //! | 0 | 1 | reserved, 0 | seed 004 byte 7 |
-//! | 1 | 1 | bits 0-1 fail-safe mode, 2-3 control-zero mode, 4-5 operation mode | seed 004 byte 8 (default 10h) |
+//! | 1 | 1 | bits 0-1 fail-safe mode, 2-3 control-zero mode, 4-5 operation mode (0 PROFIdrive, 1 vendor, 2 ABB Drives) | seed 004 byte 8 (default 10h) |
 //! | 2 | 2 | communication cut-off time, ms, 0 = none | seed 004 bytes 9-10 |
 //! | 4 | 20 | fail-safe PZD1 (CW) .. PZD10 | seed 004 bytes 11-30 |
 //! | 24 | 18 | RdPZD2 .. RdPZD10, function codes | seed 000 rows 1-9 |
@@ -52,6 +52,24 @@ pub enum OperationMode {
     /// The vendor's words of seed 000 (its control and status word tables), passed to the
     /// drive unchanged, as seed 004's "vendor specific" mode does.
     Vendor = 1,
+    /// Seed 004's vendor mode, the ABB Drives profile: the same state machine as PROFIdrive
+    /// (its control word has the same bits), with references scaled +-20000 = rated speed.
+    AbbDrives = 2,
+}
+
+impl OperationMode {
+    /// Whether the adapter runs the state machine and translates to the drive's words.
+    pub const fn translates(self) -> bool {
+        !matches!(self, OperationMode::Vendor)
+    }
+
+    /// The reference value of the rated speed: 4000h (PROFIdrive), 20000 (ABB Drives).
+    pub const fn rated_units(self) -> i32 {
+        match self {
+            OperationMode::AbbDrives => 20_000,
+            _ => 0x4000,
+        }
+    }
 }
 
 /// Why user parameters were refused.
@@ -153,6 +171,7 @@ impl UserPrm {
         let operation = match (header >> 4) & 0x03 {
             0 => OperationMode::Profidrive,
             1 => OperationMode::Vendor,
+            2 => OperationMode::AbbDrives,
             other => return Err(PrmError::OperationMode(other)),
         };
         let mut prm = UserPrm {
@@ -241,7 +260,12 @@ mod tests {
         bytes[1] = 0x08;
         assert_eq!(UserPrm::parse(&bytes), Err(PrmError::ControlZeroMode(2)));
         bytes[1] = 0x20;
-        assert_eq!(UserPrm::parse(&bytes), Err(PrmError::OperationMode(2)));
+        assert_eq!(
+            UserPrm::parse(&bytes).map(|p| p.operation),
+            Ok(OperationMode::AbbDrives)
+        );
+        bytes[1] = 0x30;
+        assert_eq!(UserPrm::parse(&bytes), Err(PrmError::OperationMode(3)));
         bytes[1] = 0x40;
         assert_eq!(UserPrm::parse(&bytes), Err(PrmError::ReservedBits));
     }

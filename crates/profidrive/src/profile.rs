@@ -10,7 +10,8 @@
 //!      FAULT
 //! ```
 //! References: REF and ACT are signed, 0x4000 (16384) is the rated speed of the motor, a
-//! negative value runs in reverse (seed 004, "给定值"). The drive's frequency is unsigned with
+//! negative value runs in reverse (seed 004, "给定值"); in the ABB Drives mode 20000 is. The
+//! drive's frequency is unsigned with
 //! the direction in the vendor control word; `rated` is the drive's value that 0x4000 means.
 
 use crate::words::{control as vendor, status as vendor_status};
@@ -98,7 +99,15 @@ pub struct ToDrive {
 impl Profile {
     /// Takes the master's control word and reference, steps the state machine with the drive's
     /// latest vendor status word, and says what the drive gets.
-    pub fn command(&mut self, cw: u16, reference: i16, drive_status: u16, rated: u16) -> ToDrive {
+    /// `units` is the bus value of the rated speed (4000h, or 20000 in the ABB Drives mode).
+    pub fn command(
+        &mut self,
+        cw: u16,
+        reference: i16,
+        drive_status: u16,
+        rated: u16,
+        units: i32,
+    ) -> ToDrive {
         // Table 7, bit 10: without REMOTE_CMD a non-zero frame keeps the previous command; an
         // all-zero one is accepted (fieldbus control allowed).
         if cw & control::REMOTE_CMD != 0 || (cw == 0 && reference == 0) {
@@ -109,7 +118,7 @@ impl Profile {
         let reset = cw & control::RESET != 0 && self.previous_control & control::RESET == 0;
         self.previous_control = cw;
         self.step(cw, reset, drive_status & vendor_status::FAULT != 0);
-        self.drive_command(rated)
+        self.drive_command(rated, units)
     }
 
     fn step(&mut self, cw: u16, reset: bool, fault: bool) {
@@ -139,7 +148,7 @@ impl Profile {
         }
     }
 
-    fn drive_command(&self, rated: u16) -> ToDrive {
+    fn drive_command(&self, rated: u16, units: i32) -> ToDrive {
         let cw = self.control_word;
         let mut word = vendor::REMOTE;
         if cw & control::NO_OFF2 == 0 {
@@ -170,8 +179,8 @@ impl Profile {
             word |= vendor::FAULT_RESET;
         }
         let magnitude = i32::from(self.reference).unsigned_abs();
-        let reference =
-            (magnitude * u32::from(rated) / RATED as u32).min(u32::from(u16::MAX)) as u16;
+        let reference = (magnitude * u32::from(rated) / units.unsigned_abs().max(1))
+            .min(u32::from(u16::MAX)) as u16;
         ToDrive {
             control_word: word,
             reference,
@@ -217,11 +226,11 @@ impl Profile {
 
     /// ACT for the master: the drive's unsigned frequency, scaled to 0x4000 = rated, negative
     /// while the drive runs in reverse.
-    pub fn actual(&self, drive_status: u16, frequency: u16, rated: u16) -> i16 {
+    pub fn actual(&self, drive_status: u16, frequency: u16, rated: u16, units: i32) -> i16 {
         if rated == 0 {
             return 0;
         }
-        let scaled = (i32::from(frequency) * RATED / i32::from(rated)).min(i32::from(i16::MAX));
+        let scaled = (i32::from(frequency) * units / i32::from(rated)).min(i32::from(i16::MAX));
         if drive_status & vendor_status::REVERSE != 0 {
             -scaled as i16
         } else {
@@ -252,17 +261,20 @@ mod tests {
             p.status_word(0) & status::SWC_ON_INHIB,
             status::SWC_ON_INHIB
         );
-        p.command(OFF, 0, 0, RATED_50HZ);
+        p.command(OFF, 0, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, ReadyToSwitchOn);
         assert_eq!(p.status_word(0) & 0x7, status::RDY_ON);
-        p.command(OFF | control::ON, 0, 0, RATED_50HZ);
+        p.command(OFF | control::ON, 0, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, ReadyToOperate);
-        let d = p.command(RUN, 0x2000, 0, RATED_50HZ);
+        let d = p.command(RUN, 0x2000, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, OperationEnabled);
         assert_eq!(p.status_word(0) & 0x7, 0x7);
         // Half the rated speed forward: 25.00 Hz, run command, no reverse.
         assert_eq!(d.reference, 2500);
         assert_eq!(d.control_word & vendor::RUN, vendor::RUN);
+        // In the ABB Drives mode 10000 is half the rated speed.
+        let d = p.command(RUN, 10_000, 0, RATED_50HZ, 20_000);
+        assert_eq!(d.reference, 2500);
         assert_eq!(d.control_word & vendor::REVERSE, 0);
     }
 
@@ -270,27 +282,27 @@ mod tests {
     fn off1_off2_off3_and_reverse() {
         let mut p = Profile::default();
         for cw in [OFF, OFF | control::ON, RUN] {
-            p.command(cw, -0x4000, 0, RATED_50HZ);
+            p.command(cw, -0x4000, 0, RATED_50HZ, RATED);
         }
-        let d = p.command(RUN, -0x4000, 0, RATED_50HZ);
+        let d = p.command(RUN, -0x4000, 0, RATED_50HZ, RATED);
         assert_eq!(
             (d.reference, d.control_word & vendor::REVERSE),
             (5000, vendor::REVERSE)
         );
         // OFF1: ramp stop, back to READY TO SWITCH ON.
-        let d = p.command(RUN & !control::ON, 0, 0, RATED_50HZ);
+        let d = p.command(RUN & !control::ON, 0, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, ReadyToSwitchOn);
         assert_eq!(d.control_word & vendor::RUN, 0);
         // OFF2: coast stop, SWITCH-ON INHIBIT, OFF_2_STA cleared.
         for cw in [OFF | control::ON, RUN] {
-            p.command(cw, 0, 0, RATED_50HZ);
+            p.command(cw, 0, 0, RATED_50HZ, RATED);
         }
-        let d = p.command(RUN & !control::NO_OFF2, 0, 0, RATED_50HZ);
+        let d = p.command(RUN & !control::NO_OFF2, 0, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, SwitchOnInhibit);
         assert_eq!(d.control_word & vendor::COAST_STOP, vendor::COAST_STOP);
         assert_eq!(p.status_word(0) & status::OFF_2_STA, 0);
         // OFF3: quick stop.
-        let d = p.command(RUN & !control::NO_OFF3, 0, 0, RATED_50HZ);
+        let d = p.command(RUN & !control::NO_OFF3, 0, 0, RATED_50HZ, RATED);
         assert_eq!(d.control_word & vendor::QUICK_STOP, vendor::QUICK_STOP);
         assert_eq!(p.state, SwitchOnInhibit);
     }
@@ -299,23 +311,29 @@ mod tests {
     fn fault_and_reset_on_a_rising_edge() {
         let mut p = Profile::default();
         for cw in [OFF, OFF | control::ON, RUN] {
-            p.command(cw, 0x4000, 0, RATED_50HZ);
+            p.command(cw, 0x4000, 0, RATED_50HZ, RATED);
         }
-        p.command(RUN, 0x4000, vendor_status::FAULT, RATED_50HZ);
+        p.command(RUN, 0x4000, vendor_status::FAULT, RATED_50HZ, RATED);
         assert_eq!(p.state, Fault);
         assert_eq!(
             p.status_word(vendor_status::FAULT) & status::TRIPPED,
             status::TRIPPED
         );
         // Without a RESET edge the fault stays, even once the drive is clear.
-        p.command(RUN, 0, 0, RATED_50HZ);
+        p.command(RUN, 0, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, Fault);
         // RESET's 0 -> 1 passes to the drive and is held as an acknowledgement: while the
         // drive still reports the fault nothing changes; once it is clear, SWITCH-ON INHIBIT.
-        let d = p.command(RUN | control::RESET, 0, vendor_status::FAULT, RATED_50HZ);
+        let d = p.command(
+            RUN | control::RESET,
+            0,
+            vendor_status::FAULT,
+            RATED_50HZ,
+            RATED,
+        );
         assert_eq!(d.control_word & vendor::FAULT_RESET, vendor::FAULT_RESET);
         assert_eq!(p.state, Fault);
-        p.command(RUN | control::RESET, 0, 0, RATED_50HZ);
+        p.command(RUN | control::RESET, 0, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, SwitchOnInhibit);
     }
 
@@ -323,14 +341,14 @@ mod tests {
     fn remote_cmd_of_table_7() {
         let mut p = Profile::default();
         for cw in [OFF, OFF | control::ON, RUN] {
-            p.command(cw, 0x1000, 0, RATED_50HZ);
+            p.command(cw, 0x1000, 0, RATED_50HZ, RATED);
         }
         // Without REMOTE_CMD a non-zero frame keeps the previous command and reference.
-        let d = p.command(control::ON, 0x3000, 0, RATED_50HZ);
+        let d = p.command(control::ON, 0x3000, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, OperationEnabled);
         assert_eq!(d.reference, 1250);
         // An all-zero frame is taken.
-        p.command(0, 0, 0, RATED_50HZ);
+        p.command(0, 0, 0, RATED_50HZ, RATED);
         assert_eq!(p.state, SwitchOnInhibit);
     }
 
@@ -338,9 +356,18 @@ mod tests {
     fn actual_value_scaling_of_seed_004() {
         let p = Profile::default();
         // 0x4000 = rated speed; reverse is negative.
-        assert_eq!(p.actual(0, 5000, RATED_50HZ), 0x4000);
-        assert_eq!(p.actual(0, 2500, RATED_50HZ), 0x2000);
-        assert_eq!(p.actual(vendor_status::REVERSE, 2500, RATED_50HZ), -0x2000);
-        assert_eq!(p.actual(0, 20000, RATED_50HZ), i16::MAX);
+        assert_eq!(p.actual(0, 5000, RATED_50HZ, RATED), 0x4000);
+        assert_eq!(p.actual(0, 2500, RATED_50HZ, RATED), 0x2000);
+        assert_eq!(
+            p.actual(vendor_status::REVERSE, 2500, RATED_50HZ, RATED),
+            -0x2000
+        );
+        assert_eq!(p.actual(0, 20000, RATED_50HZ, RATED), i16::MAX);
+        // The ABB Drives mode: 20000 = rated speed.
+        assert_eq!(p.actual(0, 5000, RATED_50HZ, 20_000), 20_000);
+        assert_eq!(
+            p.actual(vendor_status::REVERSE, 2500, RATED_50HZ, 20_000),
+            -10_000
+        );
     }
 }

@@ -141,4 +141,10 @@ fn the_default_user_parameters_are_what_set_prm_accepts() {
     assert_eq!(prm.operation, OperationMode::Profidrive);
     assert_eq!(prm.cut_off_ms, 250);
     assert_eq!(prm.wr_pzd[1].0, 0xF105);
+    let mut builder = gsd_parser::PrmBuilder::new(&gsd.user_prm_data);
+    builder.set_prm_from_text("Operation mode", "ABB Drives (+-20000)");
+    assert_eq!(
+        UserPrm::parse(builder.as_bytes()).unwrap().operation,
+        OperationMode::AbbDrives
+    );
 }

@@ -649,13 +649,7 @@ mod tests {
         let mut prm = UserPrm::DEFAULT;
         prm.operation = OperationMode::Profidrive;
         let mut app = app_with(prm, Ppo::Ppo3);
-        let off = pd::NO_OFF2 | pd::NO_OFF3 | pd::REMOTE_CMD;
-        let run = off
-            | pd::ON
-            | pd::OPERATION_ENABLE
-            | pd::RAMP_OUT_ENABLE
-            | pd::RAMP_ACCELERATOR_ENABLE
-            | pd::RAMP_INPUT_ENABLE;
+        let (off, run) = (pd::READY, pd::OPERATE);
         exchange(&mut app, 1, &ppo3(off, 0));
         exchange(&mut app, 2, &ppo3(off | pd::ON, 0));
         // Three quarters of the rated speed in reverse: 37.50 Hz, reverse, running.
@@ -694,7 +688,7 @@ mod tests {
         app.drive_mut().set(0xD104, 321);
         let pke = |label: u16, pnu: u16| label << 12 | pnu;
         // 915.3 = 1202 (PZD3 out writes 12.02, here FB.02); 916.3 = 2204 (PZD3 in reads D1.04).
-        let run = pd::NO_OFF2 | pd::NO_OFF3 | pd::REMOTE_CMD;
+        let run = pd::READY;
         let inputs = exchange(
             &mut app,
             1,

@@ -33,6 +33,17 @@ pub mod control {
     pub const INCHING_1: u16 = 1 << 8;
     pub const INCHING_2: u16 = 1 << 9;
     pub const REMOTE_CMD: u16 = 1 << 10;
+
+    /// Remote control with OFF2 and OFF3 released and ON clear: what takes SWITCH-ON INHIBIT
+    /// to READY TO SWITCH ON.
+    pub const READY: u16 = NO_OFF2 | NO_OFF3 | REMOTE_CMD;
+    /// Normal operation: READY with ON, operation and every ramp function generator enabled.
+    pub const OPERATE: u16 = READY
+        | ON
+        | OPERATION_ENABLE
+        | RAMP_OUT_ENABLE
+        | RAMP_ACCELERATOR_ENABLE
+        | RAMP_INPUT_ENABLE;
 }
 
 /// Status word bits (table 8).
@@ -245,13 +256,8 @@ mod tests {
     use DriveState::*;
 
     const RATED_50HZ: u16 = 5000;
-    const OFF: u16 = control::NO_OFF2 | control::NO_OFF3 | control::REMOTE_CMD;
-    const RUN: u16 = OFF
-        | control::ON
-        | control::OPERATION_ENABLE
-        | control::RAMP_OUT_ENABLE
-        | control::RAMP_ACCELERATOR_ENABLE
-        | control::RAMP_INPUT_ENABLE;
+    const OFF: u16 = control::READY;
+    const RUN: u16 = control::OPERATE;
 
     #[test]
     fn table_7_start_sequence_to_operation_enabled() {

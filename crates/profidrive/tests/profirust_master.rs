@@ -15,11 +15,16 @@ use profirust::Baudrate;
 const START: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
 
 fn bus(ppo: Ppo) -> Bus<ProfidriveApp<MockDrive>> {
+    bus_with(ppo, UserPrm::DEFAULT)
+}
+
+/// A master with `ppo` and `prm` in data exchange with the slave.
+fn bus_with(ppo: Ppo, prm: UserPrm) -> Bus<ProfidriveApp<MockDrive>> {
     let mut bus = Bus::new(
         Baudrate::B1500000,
         MasterOptions {
             ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
-            user_prm: UserPrm::DEFAULT.encode().to_vec(),
+            user_prm: prm.encode().to_vec(),
             config: ppo.cfg().to_vec(),
         },
         Config {
@@ -123,30 +128,8 @@ fn ppo1_in_the_profidrive_profile() {
     use profidrive::profile::{control as pd, status as pds};
     let mut prm = UserPrm::DEFAULT;
     prm.operation = OperationMode::Profidrive;
-    let mut bus = Bus::new(
-        Baudrate::B1500000,
-        MasterOptions {
-            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
-            user_prm: prm.encode().to_vec(),
-            config: Ppo::Ppo1.cfg().to_vec(),
-        },
-        Config {
-            address: SLAVE,
-            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
-            no_add_chg: false,
-            dpv1_status_bytes: false,
-        },
-        ProfidriveApp::new(MockDrive::default()),
-    );
-    bus.service = |slave, now| slave.app_mut().service(now);
-    bus.run_until(Duration::from_secs(2), |b| b.running());
-    let off = pd::NO_OFF2 | pd::NO_OFF3 | pd::REMOTE_CMD;
-    let run = off
-        | pd::ON
-        | pd::OPERATION_ENABLE
-        | pd::RAMP_OUT_ENABLE
-        | pd::RAMP_ACCELERATOR_ENABLE
-        | pd::RAMP_INPUT_ENABLE;
+    let mut bus = bus_with(Ppo::Ppo1, prm);
+    let (off, run) = (pd::READY, pd::OPERATE);
     // The start sequence of table 7, then half the rated speed.
     until(&mut bus, &[0, 0, 0, 0, off, 0], |i| i[4] & pds::RDY_ON != 0);
     until(&mut bus, &[0, 0, 0, 0, off | pd::ON, 0], |i| {

@@ -332,6 +332,11 @@ impl<A: Application> Slave<A> {
             // A DP service always names the master's SAP too.
             (Some(_), None) => return Answer::None,
         };
+        // Global_Control is the only DP-V0 service sent to a group or to all stations: any
+        // other broadcast changes nothing.
+        if broadcast && service != Some(Sap::GLOBAL_CONTROL) {
+            return Answer::None;
+        }
         if self.state == State::PowerOn && service != Some(Sap::SET_SLAVE_ADD) {
             self.state = State::WaitPrm;
         }
@@ -342,7 +347,6 @@ impl<A: Application> Slave<A> {
         }
         let payload = request.payload;
         match service {
-            None if broadcast => Answer::None,
             None => self.data_exchange(now, request.sa, payload),
             Some(Sap::SLAVE_DIAG) => self.slave_diag(request.sa),
             Some(Sap::SET_PRM) => self.set_prm(now, request.sa, payload),
@@ -351,7 +355,7 @@ impl<A: Application> Slave<A> {
             Some(Sap::GLOBAL_CONTROL) => self.global_control(now, request.sa, payload),
             Some(Sap::RD_INP) => self.read_inputs(now),
             Some(Sap::RD_OUTP) => self.read_outputs(),
-            Some(Sap::SET_SLAVE_ADD) if !broadcast => self.set_slave_add(payload),
+            Some(Sap::SET_SLAVE_ADD) => self.set_slave_add(payload),
             Some(_) => Answer::NotActivated,
         }
     }
@@ -1198,6 +1202,47 @@ mod tests {
             data_exchange(&mut s, 0, &[]),
             Some(Owned::Data(S::SapNotActivated, vec![]))
         );
+    }
+
+    #[test]
+    fn broadcasts_other_than_global_control_change_nothing() {
+        let mut s = slave();
+        let to_all = |sap, payload| DataRepr {
+            da: BROADCAST_ADDRESS,
+            fc: FrameControl::Request {
+                fcb: false,
+                fcv: false,
+                function: F::SdnLow,
+            },
+            ..service(sap, payload)
+        };
+        assert_eq!(send(&mut s, 0, to_all(Sap::SET_PRM, &SET_PRM)), None);
+        assert_eq!(s.state(), State::PowerOn);
+        assert_eq!(s.owner(), None);
+        into_data_exchange(&mut s);
+        assert_eq!(send(&mut s, 1, to_all(Sap::CHK_CFG, &[0xF1])), None);
+        assert_eq!(
+            send(
+                &mut s,
+                1,
+                DataRepr {
+                    ssap: None,
+                    ..to_all(Sap::SET_PRM, &[0; 12])
+                }
+            ),
+            None
+        );
+        assert_eq!(
+            s.io_sizes(),
+            IoSizes {
+                inputs: 12,
+                outputs: 12
+            }
+        );
+        assert_eq!(s.app().output_count, 0);
+        let add = [42, 0x80, 0xE0, 0x00];
+        assert_eq!(send(&mut s, 1, to_all(Sap::SET_SLAVE_ADD, &add)), None);
+        assert_eq!(s.address(), ME);
     }
 
     #[test]

@@ -47,7 +47,7 @@ fn exchanging() -> Slave<EchoApp> {
 }
 
 /// Everything a request can change.
-#[derive(Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Snapshot {
     state: State,
     owner: Option<u8>,
@@ -134,6 +134,10 @@ proptest! {
             });
             if *da != address && *da != 127 {
                 prop_assert_eq!(&response, &None, "answered a telegram for {}", da);
+                prop_assert_eq!(snapshot(&s), before);
+            }
+            // Only Global_Control may act on a broadcast.
+            if *da == 127 && *dsap != Some(Sap::GLOBAL_CONTROL) {
                 prop_assert_eq!(snapshot(&s), before);
             }
             let expects = matches!(fc, FrameControl::Request { function, .. } if function.expects_response());

@@ -6,9 +6,11 @@
 //! - [`firmware`]: the firmware behind the transceiver, the real image in QEMU
 //!   ([`firmware::Qemu`]) or its logic in-process ([`firmware::InProcess`]).
 //! - [`scenario`]: the scenarios of `cargo xtask qemu-test`, each with its checks.
+//! - [`drive_sim`]: the drive behind the adapter (its Modbus side comes with the drive link).
 #![deny(unsafe_code)]
 
 pub mod cosim;
+pub mod drive_sim;
 pub mod firmware;
 pub mod master;
 pub mod scenario;

@@ -1,0 +1,501 @@
+//! The variable-frequency drive behind the adapter: seed 000's parameter groups, a speed
+//! ramp, the vendor control word (obeyed only with the command source on the communication
+//! module), faults and warnings a scenario injects, and faults of the link itself. It answers
+//! Modbus RTU requests ([`DriveSim::modbus`]) and, for in-process tests, the adapter's
+//! `profidrive::Drive` calls directly.
+//!
+//! Registers are function codes (seed 000): Fx.yy application parameters, D0.yy/D1.yy status
+//! values, DE.yy fault record. Seed 000 does not name its communication registers or its ramp
+//! times; this simulator uses (and documents here) the following:
+//!
+//! | register | meaning |
+//! |---|---|
+//! | 0x2000 | control word (seed 000's control-word bits), write |
+//! | 0x2100 | status word (seed 000's status-word bits), read |
+//! | F0.29 | set frequency, 0.01 Hz (seed 000: "通过 F029 给定运行频率") |
+//! | F0.33, F0.34 | command source; 3 = extension communication module (seed 000) |
+//! | F0.13, F0.14 | acceleration and deceleration time, 0.1 s from 0 to F0.10 |
+//! | F0.10 | maximum frequency, 0.01 Hz (default 50.00 Hz) |
+//! | D0.00 | output frequency, 0.01 Hz |
+//! | D0.01 | set frequency, 0.01 Hz |
+//! | D0.04 | output current, 0.01 A (proportional to frequency, a model) |
+//! | DE.00 | the newest fault or warning record (bit 7 fault, bit 6 warning) |
+
+use profidrive::codes::{CodeKind, FunctionCode};
+use profidrive::drive::{Drive, DriveError, FaultRecord};
+use profidrive::words::{control, rose, status};
+
+pub const CONTROL_WORD: u16 = 0x2000;
+pub const STATUS_WORD: u16 = 0x2100;
+pub const SET_FREQUENCY: u16 = 0xF029;
+pub const COMMAND_SOURCE: u16 = 0xF033;
+pub const COMMAND_SOURCE_2: u16 = 0xF034;
+pub const MAX_FREQUENCY: u16 = 0xF010;
+pub const ACCEL_TIME: u16 = 0xF013;
+pub const DECEL_TIME: u16 = 0xF014;
+pub const OUTPUT_FREQUENCY: u16 = 0xD000;
+pub const SET_FREQUENCY_STATUS: u16 = 0xD001;
+pub const OUTPUT_CURRENT: u16 = 0xD004;
+pub const FAULT_RECORD: u16 = 0xDE00;
+
+/// Seed 000's value of F0.33/F0.34 for "extension communication module".
+pub const COMMAND_FROM_MODULE: u16 = 3;
+/// AL.061: the drive's own alarm when the adapter stops talking to it.
+pub const ALARM_COMMUNICATION_LOST: u8 = 61;
+/// How long the adapter may stay silent before AL.061.
+pub const COMMUNICATION_TIMEOUT_US: u64 = 500_000;
+/// The quick stop ramps down this many times faster than the deceleration time.
+const QUICK_STOP_FACTOR: u64 = 10;
+
+/// Faults of the link to the drive, injected by a scenario.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LinkFault {
+    #[default]
+    None,
+    /// The drive never answers.
+    NoAnswer,
+    /// Answers arrive with a bad CRC.
+    CrcError,
+    /// Noise on the line: answers arrive garbled.
+    Noise,
+    /// The cable is out.
+    Disconnected,
+}
+
+/// The simulated drive.
+#[derive(Clone, Debug)]
+pub struct DriveSim {
+    /// F0.00 .. FF.55: 16 groups of 56.
+    application: [[u16; 56]; 16],
+    control_word: u16,
+    /// Output frequency in 0.01 Hz x 1000 (sub-step precision for the ramp).
+    output_milli: u64,
+    reverse: bool,
+    fault: Option<u8>,
+    warning: Option<u8>,
+    /// The last time the adapter talked to the drive.
+    last_contact_us: u64,
+    now_us: u64,
+    pub link_fault: LinkFault,
+    /// Writes to non-volatile memory.
+    pub persistent_writes: u32,
+    pub fault_resets: u32,
+}
+
+impl Default for DriveSim {
+    fn default() -> Self {
+        let mut application = [[0u16; 56]; 16];
+        application[0][10] = 5000; // F0.10 maximum frequency, 50.00 Hz
+        application[0][13] = 50; // F0.13 acceleration 5.0 s
+        application[0][14] = 50; // F0.14 deceleration 5.0 s
+        application[0][33] = COMMAND_FROM_MODULE;
+        application[0][34] = COMMAND_FROM_MODULE;
+        DriveSim {
+            application,
+            control_word: 0,
+            output_milli: 0,
+            reverse: false,
+            fault: None,
+            warning: None,
+            last_contact_us: 0,
+            now_us: 0,
+            link_fault: LinkFault::None,
+            persistent_writes: 0,
+            fault_resets: 0,
+        }
+    }
+}
+
+fn application_slot(code: u16) -> Option<(usize, usize)> {
+    let code = FunctionCode(code);
+    match code.kind() {
+        Some(CodeKind::Application) => {
+            Some((usize::from(code.group() - 0xF0), usize::from(code.index()?)))
+        }
+        _ => None,
+    }
+}
+
+impl DriveSim {
+    fn param(&self, code: u16) -> u16 {
+        application_slot(code).map_or(0, |(g, i)| self.application[g][i])
+    }
+
+    /// Injects a fault Fu.`code`: the drive trips and coasts.
+    pub fn inject_fault(&mut self, code: u8) {
+        self.fault = Some(code & 0x3F);
+        self.output_milli = 0;
+    }
+
+    /// Injects (or clears) a warning AL.`code`.
+    pub fn set_warning(&mut self, code: Option<u8>) {
+        self.warning = code.map(|c| c & 0x3F);
+    }
+
+    pub fn fault(&self) -> Option<u8> {
+        self.fault
+    }
+
+    pub fn warning(&self) -> Option<u8> {
+        self.warning
+    }
+
+    /// Output frequency, 0.01 Hz.
+    pub fn output_frequency(&self) -> u16 {
+        (self.output_milli / 1000) as u16
+    }
+
+    pub fn reverse(&self) -> bool {
+        self.reverse
+    }
+
+    pub fn control_word(&self) -> u16 {
+        self.control_word
+    }
+
+    fn obeys_bus(&self) -> bool {
+        self.param(COMMAND_SOURCE) == COMMAND_FROM_MODULE
+    }
+
+    fn run_commanded(&self) -> bool {
+        let cw = self.control_word;
+        let needed = control::RUN_ENABLE | control::START_ENABLE | control::RUN;
+        self.obeys_bus()
+            && self.fault.is_none()
+            && cw & needed == needed
+            && cw & (control::QUICK_STOP | control::COAST_STOP) == 0
+    }
+
+    /// Lets `dt_us` pass: the ramp moves, the communication watchdog runs.
+    pub fn advance(&mut self, dt_us: u64) {
+        self.now_us += dt_us;
+        if self.obeys_bus() && self.now_us - self.last_contact_us > COMMUNICATION_TIMEOUT_US {
+            self.warning = Some(ALARM_COMMUNICATION_LOST);
+        }
+        let cw = self.control_word;
+        if self.obeys_bus() && cw & control::COAST_STOP != 0 {
+            self.output_milli = 0;
+            return;
+        }
+        let max = u64::from(self.param(MAX_FREQUENCY).max(1));
+        let target = if self.run_commanded() && cw & control::RAMP_INPUT_ZERO == 0 {
+            u64::from(self.param(SET_FREQUENCY).min(self.param(MAX_FREQUENCY))) * 1000
+        } else {
+            0
+        };
+        // The direction changes only through zero.
+        let want_reverse = cw & control::REVERSE != 0 && self.run_commanded();
+        let target = if want_reverse != self.reverse && self.output_milli > 0 {
+            0
+        } else {
+            target
+        };
+        if self.output_milli == 0 {
+            self.reverse = want_reverse;
+        }
+        if cw & control::RAMP_HOLD != 0 && self.run_commanded() {
+            return;
+        }
+        // Ramp time is from 0 to the maximum frequency, in 0.1 s.
+        let accel = u64::from(self.param(ACCEL_TIME).max(1)) * 100_000;
+        let mut decel = u64::from(self.param(DECEL_TIME).max(1)) * 100_000;
+        if cw & control::QUICK_STOP != 0 {
+            decel /= QUICK_STOP_FACTOR;
+        }
+        let (ramp_us, up) = if target > self.output_milli {
+            (accel, true)
+        } else {
+            (decel, false)
+        };
+        let step = max * 1000 * dt_us / ramp_us;
+        self.output_milli = if up {
+            (self.output_milli + step).min(target)
+        } else {
+            self.output_milli.saturating_sub(step).max(target)
+        };
+    }
+
+    fn status_word(&self) -> u16 {
+        let cw = self.control_word;
+        let mut sw = 0;
+        if self.fault.is_none() {
+            sw |= status::READY;
+        }
+        if cw & control::RUN_ENABLE != 0 {
+            sw |= status::RUN_ENABLED;
+        }
+        if cw & control::START_ENABLE != 0 {
+            sw |= status::START_ENABLED;
+        }
+        if self.run_commanded() || self.output_milli > 0 {
+            sw |= status::RUNNING;
+        }
+        if self.reverse {
+            sw |= status::REVERSE;
+        }
+        let target = if self.run_commanded() {
+            u64::from(self.param(SET_FREQUENCY)) * 1000
+        } else {
+            0
+        };
+        match self.output_milli.cmp(&target) {
+            core::cmp::Ordering::Less => sw |= status::ACCELERATING,
+            core::cmp::Ordering::Greater => sw |= status::DECELERATING,
+            core::cmp::Ordering::Equal if self.run_commanded() => sw |= status::AT_SETPOINT,
+            core::cmp::Ordering::Equal => {}
+        }
+        if self.output_milli == 0 {
+            sw |= status::ZERO_SPEED;
+        }
+        if self.obeys_bus() {
+            sw |= status::COMMAND_FROM_BUS | status::REFERENCE_FROM_BUS;
+        }
+        if self.warning.is_some() {
+            sw |= status::WARNING;
+        }
+        if self.fault.is_some() {
+            sw |= status::FAULT;
+        }
+        sw
+    }
+
+    fn contact(&mut self) -> Result<(), DriveError> {
+        match self.link_fault {
+            LinkFault::None => {}
+            LinkFault::NoAnswer | LinkFault::Disconnected => return Err(DriveError::NoAnswer),
+            LinkFault::CrcError => return Err(DriveError::CrcError),
+            LinkFault::Noise => return Err(DriveError::BusNoise),
+        }
+        self.last_contact_us = self.now_us;
+        if self.warning == Some(ALARM_COMMUNICATION_LOST) {
+            self.warning = None;
+        }
+        Ok(())
+    }
+
+    /// A register read, as the Modbus slave serves it.
+    pub fn read_register(&self, register: u16) -> Result<u16, DriveError> {
+        Ok(match register {
+            STATUS_WORD => self.status_word(),
+            CONTROL_WORD => self.control_word,
+            OUTPUT_FREQUENCY => self.output_frequency(),
+            SET_FREQUENCY_STATUS => self.param(SET_FREQUENCY),
+            OUTPUT_CURRENT => self.output_frequency() / 10,
+            FAULT_RECORD => u16::from(match (self.fault, self.warning) {
+                (Some(f), _) => FaultRecord::Fault(f).to_byte(),
+                (None, Some(w)) => FaultRecord::Warning(w).to_byte(),
+                (None, None) => 0,
+            }),
+            other => match FunctionCode(other).kind() {
+                Some(CodeKind::Application) => self.param(other),
+                Some(CodeKind::Status | CodeKind::FaultRecord) => 0,
+                None => return Err(DriveError::IllegalAddress),
+            },
+        })
+    }
+
+    /// A register write, as the Modbus slave serves it.
+    pub fn write_register(
+        &mut self,
+        register: u16,
+        value: u16,
+        persist: bool,
+    ) -> Result<(), DriveError> {
+        if register == CONTROL_WORD {
+            if rose(self.control_word, value, control::FAULT_RESET) {
+                self.fault_resets += 1;
+                self.fault = None;
+            }
+            self.control_word = value;
+            return Ok(());
+        }
+        let Some((g, i)) = application_slot(register) else {
+            return Err(match FunctionCode(register).kind() {
+                Some(_) => DriveError::AccessRestricted,
+                None => DriveError::IllegalAddress,
+            });
+        };
+        if register == SET_FREQUENCY && value > self.param(MAX_FREQUENCY) {
+            return Err(DriveError::InvalidData);
+        }
+        if matches!(register, COMMAND_SOURCE | COMMAND_SOURCE_2) && value > 3 {
+            return Err(DriveError::InvalidData);
+        }
+        self.application[g][i] = value;
+        if persist {
+            self.persistent_writes += 1;
+        }
+        Ok(())
+    }
+}
+
+impl Drive for DriveSim {
+    fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
+        self.contact()?;
+        self.read_register(code.0)
+    }
+
+    fn write(&mut self, code: FunctionCode, value: u16, persist: bool) -> Result<(), DriveError> {
+        self.contact()?;
+        self.write_register(code.0, value, persist)
+    }
+
+    fn write_control(&mut self, control_word: u16) -> Result<(), DriveError> {
+        self.contact()?;
+        self.write_register(CONTROL_WORD, control_word, false)
+    }
+
+    fn read_status(&mut self) -> Result<u16, DriveError> {
+        self.contact()?;
+        self.read_register(STATUS_WORD)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dp_slave::{Application, Instant};
+    use profidrive::ppo::Ppo;
+    use profidrive::prm::{OperationMode, UserPrm};
+    use profidrive::ProfidriveApp;
+
+    const START: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
+
+    #[test]
+    fn the_ramp_follows_the_acceleration_and_deceleration_times() {
+        let mut d = DriveSim::default();
+        d.write_register(SET_FREQUENCY, 5000, false).unwrap();
+        d.write_register(CONTROL_WORD, START, false).unwrap();
+        // 5.0 s from 0 to 50.00 Hz: after 1 s, 10.00 Hz, accelerating.
+        d.advance(1_000_000);
+        assert_eq!(d.output_frequency(), 1000);
+        assert_eq!(
+            d.read_register(STATUS_WORD).unwrap() & status::ACCELERATING,
+            status::ACCELERATING
+        );
+        d.advance(5_000_000);
+        assert_eq!(d.output_frequency(), 5000);
+        assert_eq!(
+            d.read_register(STATUS_WORD).unwrap() & status::AT_SETPOINT,
+            status::AT_SETPOINT
+        );
+        // Stop: down by the deceleration ramp; quick stop ten times faster.
+        d.write_register(CONTROL_WORD, START & !control::RUN, false)
+            .unwrap();
+        d.advance(1_000_000);
+        assert_eq!(d.output_frequency(), 4000);
+        d.write_register(CONTROL_WORD, START | control::QUICK_STOP, false)
+            .unwrap();
+        d.advance(400_000);
+        assert_eq!(d.output_frequency(), 0);
+    }
+
+    #[test]
+    fn reverse_goes_through_zero_and_coast_stop_drops_at_once() {
+        let mut d = DriveSim::default();
+        d.write_register(SET_FREQUENCY, 2000, false).unwrap();
+        d.write_register(CONTROL_WORD, START, false).unwrap();
+        d.advance(3_000_000);
+        assert_eq!((d.output_frequency(), d.reverse()), (2000, false));
+        d.write_register(CONTROL_WORD, START | control::REVERSE, false)
+            .unwrap();
+        d.advance(2_000_000);
+        assert_eq!(d.output_frequency(), 0);
+        d.advance(3_000_000);
+        assert_eq!((d.output_frequency(), d.reverse()), (2000, true));
+        d.write_register(CONTROL_WORD, START | control::COAST_STOP, false)
+            .unwrap();
+        d.advance(1);
+        assert_eq!(d.output_frequency(), 0);
+    }
+
+    #[test]
+    fn only_the_communication_command_source_obeys_and_silence_raises_al_061() {
+        let mut d = DriveSim::default();
+        d.write_register(COMMAND_SOURCE, 0, false).unwrap();
+        d.write_register(SET_FREQUENCY, 2000, false).unwrap();
+        d.write_register(CONTROL_WORD, START, false).unwrap();
+        d.advance(1_000_000);
+        assert_eq!(d.output_frequency(), 0);
+        d.write_register(COMMAND_SOURCE, COMMAND_FROM_MODULE, false)
+            .unwrap();
+        d.advance(1_000_000);
+        assert_eq!(d.warning(), Some(ALARM_COMMUNICATION_LOST));
+        // AL.061 shows in DE.00 as a warning record (bit 6), and contact clears it.
+        assert_eq!(d.read_register(FAULT_RECORD).unwrap(), 0x40 | 61);
+        Drive::read_status(&mut d).unwrap();
+        assert_eq!(d.warning(), None);
+    }
+
+    #[test]
+    fn faults_warnings_and_reset() {
+        let mut d = DriveSim::default();
+        d.inject_fault(12);
+        assert_eq!(d.read_register(FAULT_RECORD).unwrap(), 0x8C);
+        assert_eq!(
+            d.read_register(STATUS_WORD).unwrap() & status::FAULT,
+            status::FAULT
+        );
+        d.write_register(CONTROL_WORD, control::FAULT_RESET, false)
+            .unwrap();
+        assert_eq!(d.fault(), None);
+        d.set_warning(Some(36));
+        assert_eq!(d.read_register(FAULT_RECORD).unwrap(), 0x64);
+        assert_eq!(
+            d.write_register(0xD100, 1, true),
+            Err(DriveError::AccessRestricted)
+        );
+        assert_eq!(
+            d.write_register(0xF058, 1, true),
+            Err(DriveError::IllegalAddress)
+        );
+        assert_eq!(
+            d.write_register(SET_FREQUENCY, 6000, true),
+            Err(DriveError::InvalidData)
+        );
+        d.link_fault = LinkFault::Disconnected;
+        assert_eq!(Drive::read_status(&mut d), Err(DriveError::NoAnswer));
+        d.link_fault = LinkFault::CrcError;
+        assert_eq!(Drive::read_status(&mut d), Err(DriveError::CrcError));
+    }
+
+    /// The adapter's application over this drive, both profiles: a start, a speed reference
+    /// followed by the ramp, the status word.
+    #[test]
+    fn profidrive_app_runs_the_simulated_drive_in_both_profiles() {
+        for operation in [OperationMode::Vendor, OperationMode::Profidrive] {
+            let mut app = ProfidriveApp::new(DriveSim::default());
+            let mut prm = UserPrm::DEFAULT;
+            prm.operation = operation;
+            assert!(app.accept_user_prm(&prm.encode()));
+            app.accept_cfg(Ppo::Ppo3.cfg()).unwrap();
+            use profidrive::profile::control as pd;
+            let frames: Vec<[u16; 2]> = match operation {
+                OperationMode::Vendor => vec![[START, 2500]],
+                _ => vec![
+                    [pd::READY, 0],
+                    [pd::READY | pd::ON, 0],
+                    [pd::OPERATE, 0x2000],
+                ],
+            };
+            let mut t = 0;
+            let mut inputs = [0u8; 4];
+            let last = *frames.last().unwrap();
+            for frame in frames.iter().chain(std::iter::repeat_n(&last, 300)) {
+                let out: Vec<u8> = frame.iter().flat_map(|w| w.to_be_bytes()).collect();
+                t += 10_000;
+                app.drive_mut().advance(10_000);
+                app.outputs(Instant::from_micros(t), &out);
+                app.service(Instant::from_micros(t));
+                app.inputs(Instant::from_micros(t), &mut inputs);
+            }
+            // 25.00 Hz reached by the ramp (2.5 s of the 3 s run).
+            assert_eq!(app.drive().output_frequency(), 2500, "{operation:?}");
+            let act = u16::from_be_bytes([inputs[2], inputs[3]]);
+            match operation {
+                OperationMode::Vendor => assert_eq!(act, 2500),
+                _ => assert_eq!(act, 0x2000),
+            }
+        }
+    }
+}

@@ -351,6 +351,93 @@ impl Drive for DriveSim {
     }
 }
 
+/// The drive's Modbus RTU slave address.
+pub const MODBUS_ADDRESS: u8 = 1;
+const READ_HOLDING: u8 = 0x03;
+const WRITE_SINGLE: u8 = 0x06;
+const EXCEPTION: u8 = 0x80;
+const CRC: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_MODBUS);
+
+/// Appends the Modbus CRC (low byte first).
+pub fn with_crc(mut frame: Vec<u8>) -> Vec<u8> {
+    let crc = CRC.checksum(&frame);
+    frame.extend_from_slice(&crc.to_le_bytes());
+    frame
+}
+
+/// The Modbus exception code for an error (illegal function 1, illegal address 2, illegal
+/// value 3, device failure 4).
+fn exception_code(e: DriveError) -> u8 {
+    match e {
+        DriveError::IllegalOperation => 0x01,
+        DriveError::IllegalAddress | DriveError::AccessRestricted => 0x02,
+        DriveError::InvalidData => 0x03,
+        _ => 0x04,
+    }
+}
+
+impl DriveSim {
+    /// Serves one Modbus RTU request frame (read holding registers 03h, write single register
+    /// 06h); `None` when the drive stays silent (not addressed, a bad CRC, or a link fault).
+    /// Register writes over Modbus go to non-volatile memory except the control word.
+    pub fn modbus(&mut self, request: &[u8]) -> Option<Vec<u8>> {
+        if matches!(
+            self.link_fault,
+            LinkFault::NoAnswer | LinkFault::Disconnected
+        ) {
+            return None;
+        }
+        let (body, crc) = request.split_at_checked(request.len().checked_sub(2)?)?;
+        if body.len() < 2 || body[0] != MODBUS_ADDRESS || CRC.checksum(body).to_le_bytes() != crc {
+            return None;
+        }
+        self.last_contact_us = self.now_us;
+        if self.warning == Some(ALARM_COMMUNICATION_LOST) {
+            self.warning = None;
+        }
+        let function = body[1];
+        let word = |at: usize| {
+            body.get(at..at + 2)
+                .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        };
+        let answer = match (function, word(2), word(4), body.len()) {
+            (READ_HOLDING, Some(first), Some(count @ 1..=16), 6) => {
+                let mut frame = vec![MODBUS_ADDRESS, READ_HOLDING, (count * 2) as u8];
+                let mut result = Ok(());
+                for r in first..first.saturating_add(count) {
+                    match self.read_register(r) {
+                        Ok(v) => frame.extend_from_slice(&v.to_be_bytes()),
+                        Err(e) => {
+                            result = Err(e);
+                            break;
+                        }
+                    }
+                }
+                result.map(|()| frame)
+            }
+            (WRITE_SINGLE, Some(register), Some(value), 6) => self
+                .write_register(register, value, register != CONTROL_WORD)
+                .map(|()| body.to_vec()),
+            (READ_HOLDING | WRITE_SINGLE, _, _, _) => Err(DriveError::InvalidData),
+            _ => Err(DriveError::IllegalOperation),
+        };
+        let frame = match answer {
+            Ok(frame) => frame,
+            Err(e) => vec![MODBUS_ADDRESS, function | EXCEPTION, exception_code(e)],
+        };
+        let mut frame = with_crc(frame);
+        match self.link_fault {
+            LinkFault::CrcError => {
+                let last = frame.len() - 1;
+                frame[last] ^= 0xFF;
+            }
+            LinkFault::Noise => frame[1] ^= 0x5A,
+            _ => {}
+        }
+        Some(frame)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -457,6 +544,77 @@ mod tests {
         assert_eq!(Drive::read_status(&mut d), Err(DriveError::NoAnswer));
         d.link_fault = LinkFault::CrcError;
         assert_eq!(Drive::read_status(&mut d), Err(DriveError::CrcError));
+    }
+
+    #[test]
+    fn modbus_frames_with_known_crcs() {
+        // The classic "read one holding register at 0 from slave 1": 01 03 00 00 00 01 84 0A.
+        assert_eq!(
+            with_crc(vec![0x01, 0x03, 0x00, 0x00, 0x00, 0x01]),
+            [0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A]
+        );
+        // Write 12345 to 10BCh at slave 1: 01 06 10 BC 30 39 98 FC (async-modbus's example).
+        assert_eq!(
+            with_crc(vec![0x01, 0x06, 0x10, 0xBC, 0x30, 0x39]),
+            [0x01, 0x06, 0x10, 0xBC, 0x30, 0x39, 0x98, 0xFC]
+        );
+    }
+
+    #[test]
+    fn modbus_reads_writes_and_exceptions() {
+        let mut d = DriveSim::default();
+        // Write F0.29 = 25.00 Hz, echoed; read it back.
+        let write = with_crc(vec![1, 0x06, 0xF0, 0x29, 0x09, 0xC4]);
+        assert_eq!(d.modbus(&write), Some(write.clone()));
+        assert_eq!(d.persistent_writes, 1);
+        let read = with_crc(vec![1, 0x03, 0xF0, 0x29, 0x00, 0x01]);
+        assert_eq!(
+            d.modbus(&read),
+            Some(with_crc(vec![1, 0x03, 2, 0x09, 0xC4]))
+        );
+        // Two registers: D0.00 output frequency (0, stopped) and D0.01 set frequency.
+        let read_two = with_crc(vec![1, 0x03, 0xD0, 0x00, 0x00, 0x02]);
+        assert_eq!(
+            d.modbus(&read_two),
+            Some(with_crc(vec![1, 0x03, 4, 0, 0, 0x09, 0xC4]))
+        );
+        // The address after F0.29 is 0xF02A, not F0.30: codes are decimal digits (exception 2).
+        let across = with_crc(vec![1, 0x03, 0xF0, 0x29, 0x00, 0x02]);
+        assert_eq!(d.modbus(&across), Some(with_crc(vec![1, 0x83, 0x02])));
+        // The control word register is not non-volatile.
+        d.modbus(&with_crc(vec![1, 0x06, 0x20, 0x00, 0x00, 0x16]));
+        assert_eq!((d.control_word(), d.persistent_writes), (0x16, 1));
+        // F0.58 does not exist: exception 2. A status value is not writable: exception 2.
+        // Function 0x10 is not served: exception 1.
+        assert_eq!(
+            d.modbus(&with_crc(vec![1, 0x03, 0xF0, 0x58, 0, 1])),
+            Some(with_crc(vec![1, 0x83, 0x02]))
+        );
+        assert_eq!(
+            d.modbus(&with_crc(vec![1, 0x06, 0xD1, 0x00, 0, 1])),
+            Some(with_crc(vec![1, 0x86, 0x02]))
+        );
+        assert_eq!(
+            d.modbus(&with_crc(vec![1, 0x10, 0xF0, 0x29, 0, 1, 2, 0, 0])),
+            Some(with_crc(vec![1, 0x90, 0x01]))
+        );
+        // Another slave, a bad CRC, a short frame: silence.
+        assert_eq!(d.modbus(&with_crc(vec![2, 0x03, 0xF0, 0x29, 0, 1])), None);
+        let mut bad = read.clone();
+        bad[7] ^= 1;
+        assert_eq!(d.modbus(&bad), None);
+        assert_eq!(d.modbus(&[1]), None);
+        // Link faults: no answer, a CRC error, noise.
+        d.link_fault = LinkFault::NoAnswer;
+        assert_eq!(d.modbus(&read), None);
+        d.link_fault = LinkFault::CrcError;
+        let answer = d.modbus(&read).unwrap();
+        assert_ne!(
+            CRC.checksum(&answer[..answer.len() - 2]).to_le_bytes(),
+            answer[answer.len() - 2..]
+        );
+        d.link_fault = LinkFault::Noise;
+        assert_ne!(d.modbus(&read).unwrap()[1], 0x03);
     }
 
     /// The adapter's application over this drive, both profiles: a start, a speed reference

@@ -25,8 +25,7 @@ use profidrive::codes::{CodeKind, FunctionCode};
 use profidrive::drive::{Drive, DriveError, FaultRecord};
 use profidrive::words::{control, rose, status};
 
-pub const CONTROL_WORD: u16 = 0x2000;
-pub const STATUS_WORD: u16 = 0x2100;
+pub use drive_link::{CONTROL_WORD_REGISTER as CONTROL_WORD, STATUS_WORD_REGISTER as STATUS_WORD};
 pub const SET_FREQUENCY: u16 = 0xF029;
 pub const COMMAND_SOURCE: u16 = 0xF033;
 pub const COMMAND_SOURCE_2: u16 = 0xF034;
@@ -352,7 +351,7 @@ impl Drive for DriveSim {
 }
 
 /// The drive's Modbus RTU slave address.
-pub const MODBUS_ADDRESS: u8 = 1;
+pub const MODBUS_ADDRESS: u8 = drive_link::DRIVE_ADDRESS;
 const READ_HOLDING: u8 = 0x03;
 const WRITE_SINGLE: u8 = 0x06;
 const EXCEPTION: u8 = 0x80;

@@ -1,0 +1,328 @@
+//! The link from the adapter to the drive: a Modbus RTU master on a UART (seed 000: the card
+//! accesses the drive actively, the drive answers; 0x21 bus noise, 0x22 no answer and 0x23
+//! CRC error are this link's errors).
+//!
+//! [`ModbusMaster`] runs one transaction at a time and never blocks: `start` queues a request,
+//! `poll(now_us)` moves bytes between it and the UART (embedded-hal-nb's serial traits, so the
+//! firmware's interrupt-fed UART and embedded-hal-mock both fit) and finishes the transaction
+//! when the answer is complete, refused, garbled or late. Late and garbled answers are retried.
+//! Frames are built and checked by rmodbus (function 03h read, 06h write, CRC-16).
+//!
+//! [`BlockingDrive`] puts `profidrive::Drive` on top for a task that may wait (the firmware's
+//! PZD cycle, at a priority below the DP link, so a Data_Exchange never waits for the drive).
+
+#![cfg_attr(not(test), no_std)]
+#![deny(unsafe_code)]
+
+use embedded_hal_nb::serial::{Error as _, ErrorKind as UartError, Read, Write};
+use heapless09::Vec;
+use profidrive::codes::FunctionCode;
+use profidrive::drive::{Drive, DriveError};
+use rmodbus::client::ModbusRequest;
+use rmodbus::{ErrorKind, ModbusProto};
+
+/// The drive's Modbus address.
+pub const DRIVE_ADDRESS: u8 = 1;
+/// The drive's control-word and status-word registers.
+pub const CONTROL_WORD_REGISTER: u16 = 0x2000;
+pub const STATUS_WORD_REGISTER: u16 = 0x2100;
+
+/// What a transaction does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Op {
+    Read(u16),
+    Write(u16, u16),
+}
+
+/// How a transaction ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Outcome {
+    Value(u16),
+    Written,
+    Failed(DriveError),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Config {
+    /// From the request's last byte sent to the answer's last byte received.
+    pub timeout_us: u64,
+    /// Further attempts after a late or garbled answer.
+    pub retries: u8,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            timeout_us: 50_000,
+            retries: 2,
+        }
+    }
+}
+
+/// Counters for reports and diagnosis.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    pub transactions: u32,
+    pub retries: u32,
+    pub timeouts: u32,
+    pub crc_errors: u32,
+    pub garbled: u32,
+}
+
+struct Pending {
+    op: Op,
+    request: ModbusRequest,
+    attempt: u8,
+    /// When the request went out completely (the timeout runs from then).
+    sent_at: Option<u64>,
+}
+
+/// The Modbus RTU master.
+pub struct ModbusMaster<U> {
+    uart: U,
+    config: Config,
+    pending: Option<Pending>,
+    tx: Vec<u8, 16>,
+    tx_pos: usize,
+    rx: Vec<u8, 32>,
+    /// The UART reported noise, parity or framing errors during this answer.
+    noise: bool,
+    pub stats: Stats,
+}
+
+/// The longest answer this master asks for: address, function, count, one register, CRC.
+const READ_ANSWER_LEN: usize = 7;
+const WRITE_ANSWER_LEN: usize = 8;
+const EXCEPTION_LEN: usize = 5;
+
+fn drive_error(kind: ErrorKind) -> DriveError {
+    match kind {
+        ErrorKind::FrameCRCError => DriveError::CrcError,
+        ErrorKind::IllegalFunction => DriveError::IllegalOperation,
+        ErrorKind::IllegalDataAddress => DriveError::IllegalAddress,
+        ErrorKind::IllegalDataValue => DriveError::InvalidData,
+        ErrorKind::SlaveDeviceFailure => DriveError::DriveFault,
+        ErrorKind::MemoryParityError => DriveError::MemoryFault,
+        _ => DriveError::BusNoise,
+    }
+}
+
+impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
+    pub fn new(uart: U, config: Config) -> ModbusMaster<U> {
+        ModbusMaster {
+            uart,
+            config,
+            pending: None,
+            tx: Vec::new(),
+            tx_pos: 0,
+            rx: Vec::new(),
+            noise: false,
+            stats: Stats::default(),
+        }
+    }
+
+    pub fn uart_mut(&mut self) -> &mut U {
+        &mut self.uart
+    }
+
+    pub fn busy(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// Queues a transaction; refused while one is under way.
+    pub fn start(&mut self, op: Op) -> Result<(), Op> {
+        if self.pending.is_some() {
+            return Err(op);
+        }
+        self.stats.transactions += 1;
+        let mut request = ModbusRequest::new(DRIVE_ADDRESS, ModbusProto::Rtu);
+        self.tx.clear();
+        let built = match op {
+            Op::Read(register) => request.generate_get_holdings(register, 1, &mut self.tx),
+            Op::Write(register, value) => {
+                request.generate_set_holding(register, value, &mut self.tx)
+            }
+        };
+        // Cannot fail: 8 bytes fit the 16-byte buffer.
+        debug_assert!(built.is_ok());
+        self.pending = Some(Pending {
+            op,
+            request,
+            attempt: 0,
+            sent_at: None,
+        });
+        self.tx_pos = 0;
+        self.rx.clear();
+        self.noise = false;
+        Ok(())
+    }
+
+    /// Moves bytes and finishes the transaction when it can; `now_us` runs the timeout.
+    pub fn poll(&mut self, now_us: u64) -> Option<Outcome> {
+        let pending = self.pending.as_mut()?;
+        while self.tx_pos < self.tx.len() {
+            match self.uart.write(self.tx[self.tx_pos]) {
+                Ok(()) => self.tx_pos += 1,
+                Err(_) => return None,
+            }
+        }
+        let sent_at = *pending.sent_at.get_or_insert(now_us);
+        while self.rx.len() < self.rx.capacity() && !self.answer_complete() {
+            match self.uart.read() {
+                Ok(byte) => {
+                    let _ = self.rx.push(byte);
+                }
+                Err(nb::Error::WouldBlock) => break,
+                // Seed 000's 0x21, "bus noise": the UART saw the line disturbed.
+                Err(nb::Error::Other(e)) => {
+                    if matches!(
+                        e.kind(),
+                        UartError::Noise | UartError::Parity | UartError::FrameFormat
+                    ) {
+                        self.noise = true;
+                    }
+                }
+            }
+        }
+        let result = if self.answer_complete() {
+            let checked = self.check_answer();
+            Some(match checked {
+                Err(DriveError::CrcError) if self.noise => Err(DriveError::BusNoise),
+                other => other,
+            })
+        } else if now_us.saturating_sub(sent_at) >= self.config.timeout_us {
+            self.stats.timeouts += 1;
+            Some(Err(DriveError::NoAnswer))
+        } else {
+            None
+        }?;
+        match result {
+            Err(e) if e.is_link_fault() && self.retry() => None,
+            Err(e) => {
+                self.pending = None;
+                Some(Outcome::Failed(e))
+            }
+            Ok(outcome) => {
+                self.pending = None;
+                Some(outcome)
+            }
+        }
+    }
+
+    fn answer_complete(&self) -> bool {
+        let Some(pending) = &self.pending else {
+            return false;
+        };
+        let expected = match (self.rx.get(1), pending.op) {
+            (Some(function), _) if function & 0x80 != 0 => EXCEPTION_LEN,
+            (_, Op::Read(_)) => READ_ANSWER_LEN,
+            (_, Op::Write(..)) => WRITE_ANSWER_LEN,
+        };
+        self.rx.len() >= expected
+    }
+
+    fn check_answer(&mut self) -> Result<Outcome, DriveError> {
+        let pending = self.pending.as_ref().expect("a transaction is under way");
+        let counted = |stats: &mut Stats, e: DriveError| {
+            match e {
+                DriveError::CrcError => stats.crc_errors += 1,
+                DriveError::BusNoise => stats.garbled += 1,
+                _ => {}
+            }
+            e
+        };
+        match pending.op {
+            Op::Read(_) => {
+                let mut values: Vec<u16, 1> = Vec::new();
+                match pending.request.parse_u16(&self.rx, &mut values) {
+                    Ok(()) => values
+                        .first()
+                        .map(|v| Outcome::Value(*v))
+                        .ok_or(DriveError::BusNoise),
+                    Err(kind) => Err(counted(&mut self.stats, drive_error(kind))),
+                }
+            }
+            Op::Write(_, value) => match pending.request.parse_ok(&self.rx) {
+                // The echo must carry the value written.
+                Ok(()) if self.rx.get(4..6) == Some(&value.to_be_bytes()[..]) => {
+                    Ok(Outcome::Written)
+                }
+                Ok(()) => Err(counted(&mut self.stats, DriveError::BusNoise)),
+                Err(kind) => Err(counted(&mut self.stats, drive_error(kind))),
+            },
+        }
+    }
+
+    /// Sends the request again if attempts are left.
+    fn retry(&mut self) -> bool {
+        let Some(pending) = self.pending.as_mut() else {
+            return false;
+        };
+        if pending.attempt >= self.config.retries {
+            return false;
+        }
+        pending.attempt += 1;
+        pending.sent_at = None;
+        self.stats.retries += 1;
+        self.tx_pos = 0;
+        self.rx.clear();
+        self.noise = false;
+        true
+    }
+}
+
+/// `profidrive::Drive` over the master, waiting for each answer with `now` as the clock.
+pub struct BlockingDrive<U, C> {
+    pub master: ModbusMaster<U>,
+    now_us: C,
+}
+
+impl<U: Read<u8> + Write<u8>, C: FnMut() -> u64> BlockingDrive<U, C> {
+    pub fn new(master: ModbusMaster<U>, now_us: C) -> BlockingDrive<U, C> {
+        BlockingDrive { master, now_us }
+    }
+
+    fn run(&mut self, op: Op) -> Result<Outcome, DriveError> {
+        if self.master.start(op).is_err() {
+            return Err(DriveError::DriveFault);
+        }
+        loop {
+            let now = (self.now_us)();
+            if let Some(outcome) = self.master.poll(now) {
+                return match outcome {
+                    Outcome::Failed(e) => Err(e),
+                    other => Ok(other),
+                };
+            }
+        }
+    }
+}
+
+impl<U: Read<u8> + Write<u8>, C: FnMut() -> u64> Drive for BlockingDrive<U, C> {
+    fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
+        match self.run(Op::Read(code.0))? {
+            Outcome::Value(v) => Ok(v),
+            _ => Err(DriveError::BusNoise),
+        }
+    }
+
+    fn write(&mut self, code: FunctionCode, value: u16, _persist: bool) -> Result<(), DriveError> {
+        // Modbus has one write; the drive decides what is non-volatile (its parameters are,
+        // its control word is not). The adapter avoids rewriting unchanged values itself.
+        self.run(Op::Write(code.0, value)).map(|_| ())
+    }
+
+    fn write_control(&mut self, control_word: u16) -> Result<(), DriveError> {
+        self.run(Op::Write(CONTROL_WORD_REGISTER, control_word))
+            .map(|_| ())
+    }
+
+    fn read_status(&mut self) -> Result<u16, DriveError> {
+        match self.run(Op::Read(STATUS_WORD_REGISTER))? {
+            Outcome::Value(v) => Ok(v),
+            _ => Err(DriveError::BusNoise),
+        }
+    }
+}

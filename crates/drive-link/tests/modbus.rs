@@ -1,0 +1,242 @@
+//! The Modbus master against a scripted UART (embedded-hal-mock: every byte written and read
+//! is checked) and against the drive simulator of hal-sim over a loopback UART.
+
+use drive_link::{BlockingDrive, Config, ModbusMaster, Op, Outcome};
+use embedded_hal_mock::eh1::serial::{Mock, Transaction};
+use hal_sim::drive_sim::{self, with_crc, DriveSim, LinkFault};
+use profidrive::drive::{Drive, DriveError};
+use std::collections::VecDeque;
+
+fn would_block() -> Transaction<u8> {
+    Transaction::read_error(nb::Error::WouldBlock)
+}
+
+#[test]
+fn read_frame_and_answer() {
+    // Read F0.29 (one holding register at F029h) from drive 1; the drive answers 2500.
+    let request = with_crc(vec![0x01, 0x03, 0xF0, 0x29, 0x00, 0x01]);
+    let answer = with_crc(vec![0x01, 0x03, 0x02, 0x09, 0xC4]);
+    let mut uart = Mock::new(&[
+        Transaction::write_many(request),
+        Transaction::read_many(answer),
+    ]);
+    let mut master = ModbusMaster::new(uart.clone(), Config::default());
+    master.start(Op::Read(0xF029)).unwrap();
+    assert_eq!(master.poll(0), Some(Outcome::Value(2500)));
+    assert!(!master.busy());
+    uart.done();
+}
+
+#[test]
+fn write_frame_and_echo() {
+    let request = with_crc(vec![0x01, 0x06, 0x20, 0x00, 0x00, 0x16]);
+    let mut uart = Mock::new(&[
+        Transaction::write_many(request.clone()),
+        would_block(),
+        Transaction::read_many(request),
+    ]);
+    let mut master = ModbusMaster::new(uart.clone(), Config::default());
+    master.start(Op::Write(0x2000, 0x16)).unwrap();
+    // Nothing yet: the answer has not arrived.
+    assert_eq!(master.poll(0), None);
+    assert_eq!(master.poll(1000), Some(Outcome::Written));
+    uart.done();
+}
+
+#[test]
+fn exceptions_map_to_seed_000_errors() {
+    for (code, error) in [
+        (0x01, DriveError::IllegalOperation),
+        (0x02, DriveError::IllegalAddress),
+        (0x03, DriveError::InvalidData),
+        (0x04, DriveError::DriveFault),
+    ] {
+        let request = with_crc(vec![0x01, 0x03, 0xF0, 0x58, 0x00, 0x01]);
+        let answer = with_crc(vec![0x01, 0x83, code]);
+        let mut uart = Mock::new(&[
+            Transaction::write_many(request),
+            Transaction::read_many(answer),
+        ]);
+        let mut master = ModbusMaster::new(uart.clone(), Config::default());
+        master.start(Op::Read(0xF058)).unwrap();
+        assert_eq!(
+            master.poll(0),
+            Some(Outcome::Failed(error)),
+            "exception {code}"
+        );
+        uart.done();
+    }
+}
+
+#[test]
+fn a_crc_error_is_retried_and_the_retry_succeeds() {
+    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
+    let mut bad = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
+    bad[6] ^= 0xFF;
+    let good = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
+    let mut uart = Mock::new(&[
+        Transaction::write_many(request.clone()),
+        Transaction::read_many(bad),
+        Transaction::write_many(request),
+        Transaction::read_many(good),
+    ]);
+    let mut master = ModbusMaster::new(uart.clone(), Config::default());
+    master.start(Op::Read(0xD000)).unwrap();
+    assert_eq!(master.poll(0), None, "retrying");
+    assert_eq!(master.poll(10), Some(Outcome::Value(100)));
+    assert_eq!((master.stats.crc_errors, master.stats.retries), (1, 1));
+    uart.done();
+}
+
+#[test]
+fn uart_noise_makes_a_bad_answer_bus_noise() {
+    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
+    let mut bad = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
+    bad[3] ^= 0x10;
+    let config = Config {
+        timeout_us: 1000,
+        retries: 0,
+    };
+    let mut uart = Mock::new(&[
+        Transaction::write_many(request),
+        Transaction::read_error(nb::Error::Other(embedded_hal_nb::serial::ErrorKind::Noise)),
+        Transaction::read_many(bad),
+    ]);
+    let mut master = ModbusMaster::new(uart.clone(), config);
+    master.start(Op::Read(0xD000)).unwrap();
+    assert_eq!(master.poll(0), Some(Outcome::Failed(DriveError::BusNoise)));
+    uart.done();
+}
+
+#[test]
+fn no_answer_times_out_after_the_retries() {
+    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
+    let config = Config {
+        timeout_us: 1000,
+        retries: 2,
+    };
+    let mut script = Vec::new();
+    for _ in 0..3 {
+        script.push(Transaction::write_many(request.clone()));
+        script.push(would_block());
+        script.push(would_block());
+    }
+    let mut uart = Mock::new(&script);
+    let mut master = ModbusMaster::new(uart.clone(), config);
+    master.start(Op::Read(0xD000)).unwrap();
+    let mut now = 0;
+    let outcome = loop {
+        if let Some(o) = master.poll(now) {
+            break o;
+        }
+        now += 1000;
+    };
+    assert_eq!(outcome, Outcome::Failed(DriveError::NoAnswer));
+    assert_eq!((master.stats.timeouts, master.stats.retries), (3, 2));
+    uart.done();
+}
+
+/// A UART wired to the drive simulator: a complete request frame (8 bytes, as this master
+/// sends) gets the simulator's answer, readable at once.
+struct SimUart {
+    drive: DriveSim,
+    written: Vec<u8>,
+    to_read: VecDeque<u8>,
+    noisy_reported: bool,
+}
+
+impl embedded_hal_nb::serial::ErrorType for SimUart {
+    type Error = embedded_hal_nb::serial::ErrorKind;
+}
+
+impl embedded_hal_nb::serial::Write<u8> for SimUart {
+    fn write(&mut self, word: u8) -> nb::Result<(), Self::Error> {
+        self.written.push(word);
+        if self.written.len() == 8 {
+            let request = std::mem::take(&mut self.written);
+            if let Some(answer) = self.drive.modbus(&request) {
+                self.to_read.extend(answer);
+            }
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> nb::Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+impl embedded_hal_nb::serial::Read<u8> for SimUart {
+    fn read(&mut self) -> nb::Result<u8, Self::Error> {
+        // Noise on the line shows at the UART as a noise error beside the garbled bytes.
+        if self.drive.link_fault == LinkFault::Noise
+            && !self.to_read.is_empty()
+            && !self.noisy_reported
+        {
+            self.noisy_reported = true;
+            return Err(nb::Error::Other(embedded_hal_nb::serial::ErrorKind::Noise));
+        }
+        let byte = self.to_read.pop_front().ok_or(nb::Error::WouldBlock);
+        if self.to_read.is_empty() {
+            self.noisy_reported = false;
+        }
+        byte
+    }
+}
+
+#[test]
+fn the_drive_simulator_over_modbus() {
+    let uart = SimUart {
+        drive: DriveSim::default(),
+        written: Vec::new(),
+        to_read: VecDeque::new(),
+        noisy_reported: false,
+    };
+    let clock = std::cell::Cell::new(0u64);
+    let mut drive = BlockingDrive::new(
+        ModbusMaster::new(
+            uart,
+            Config {
+                timeout_us: 100,
+                retries: 1,
+            },
+        ),
+        || {
+            clock.set(clock.get() + 10);
+            clock.get()
+        },
+    );
+    let f0_29 = profidrive::codes::FunctionCode(0xF029);
+    drive.write(f0_29, 2500, true).unwrap();
+    assert_eq!(drive.read(f0_29), Ok(2500));
+    drive
+        .write_control(profidrive::words::control::RUN_ENABLE)
+        .unwrap();
+    assert_eq!(
+        drive.master.uart_mut().drive.control_word(),
+        profidrive::words::control::RUN_ENABLE
+    );
+    let sw = drive.read_status().unwrap();
+    assert_eq!(
+        sw & profidrive::words::status::RUN_ENABLED,
+        profidrive::words::status::RUN_ENABLED
+    );
+    // Refusals and link faults come back as seed 000's errors.
+    assert_eq!(
+        drive.read(profidrive::codes::FunctionCode(0xF058)),
+        Err(DriveError::IllegalAddress)
+    );
+    assert_eq!(
+        drive.write(profidrive::codes::FunctionCode(0xD100), 1, true),
+        Err(DriveError::IllegalAddress)
+    );
+    drive.master.uart_mut().drive.link_fault = LinkFault::NoAnswer;
+    assert_eq!(drive.read(f0_29), Err(DriveError::NoAnswer));
+    drive.master.uart_mut().drive.link_fault = LinkFault::CrcError;
+    assert_eq!(drive.read(f0_29), Err(DriveError::CrcError));
+    drive.master.uart_mut().drive.link_fault = LinkFault::Noise;
+    assert_eq!(drive.read(f0_29), Err(DriveError::BusNoise));
+    drive.master.uart_mut().drive.link_fault = LinkFault::None;
+    assert_eq!(drive.read(f0_29), Ok(2500));
+    let _ = drive_sim::MODBUS_ADDRESS;
+}

@@ -25,6 +25,16 @@ const LINK_QUEUE_LEN: usize = 2 * dp_link::MAX_FRAME_LEN;
 /// The drive application until the PROFIdrive crate lands (see `adapter::loopback_app`).
 type DriveApp = dp_slave::testing::EchoApp;
 
+/// The failure paths, proven by `cargo xtask qemu-test` on images built for it.
+fn selftest() {
+    #[cfg(feature = "selftest-panic")]
+    panic!("selftest: a panic on purpose");
+    // An undefined instruction: a UsageFault, escalated to HardFault (the fault handlers
+    // are not enabled).
+    #[cfg(feature = "selftest-hardfault")]
+    cortex_m::asm::udf();
+}
+
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     error!("panic: {}", defmt::Display2Format(info));
@@ -75,6 +85,7 @@ macro_rules! adapter_app {
                 info!("cycle counter: 1000 nops count {=u32} cycles", board::calibrate());
                 let mut link_tx = board::link_tx();
                 send(&mut link_tx, &FromAdapter::Ready);
+                crate::selftest();
                 link::spawn(woken).ok();
                 (
                     Shared {},

@@ -179,6 +179,20 @@ impl Qemu {
         self.child.try_wait()
     }
 
+    /// Waits up to `timeout` (wall time) for QEMU to exit on its own.
+    pub fn wait_exit(&mut self, timeout: Duration) -> io::Result<Option<std::process::ExitStatus>> {
+        let start = std::time::Instant::now();
+        loop {
+            if let Some(status) = self.child.try_wait()? {
+                return Ok(Some(status));
+            }
+            if start.elapsed() > timeout {
+                return Ok(None);
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
     /// Stops QEMU and returns the defmt stream of every run since the first start, one per
     /// power cycle.
     pub fn stop(mut self) -> Vec<Vec<u8>> {

@@ -19,6 +19,12 @@ use std::time::Instant;
 
 const TARGET: &str = "thumbv7m-none-eabi";
 
+/// The failure-path self-tests: an image feature, and the ERROR line its log must end with.
+const SELFTESTS: [(&str, &str); 2] = [
+    ("selftest-panic", "selftest: a panic on purpose"),
+    ("selftest-hardfault", "HardFault"),
+];
+
 /// One firmware image: the board, its feature, its limits.
 struct Image {
     board: &'static str,
@@ -76,6 +82,16 @@ pub fn run(args: &[String]) -> Result<()> {
     let elf_bytes = std::fs::read(&elf)?;
     let table = defmt_decoder::Table::parse(&elf_bytes)?
         .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
+    println!("failure paths:");
+    for (feature, want) in SELFTESTS {
+        match selftest(&qemu, feature, want) {
+            Ok(line) => println!("  {feature:<19} ok: {line}"),
+            Err(e) => {
+                println!("  {feature:<19} FAILED: {e:#}");
+                failures += 1;
+            }
+        }
+    }
 
     let expected_dir = project_root().join("ci/expected/qemu-test");
     let scenarios: Vec<_> = scenario::all()
@@ -130,6 +146,39 @@ pub fn run(args: &[String]) -> Result<()> {
         std::process::exit(1);
     }
     Ok(())
+}
+
+/// Builds the QEMU image with a self-test `feature`, runs it, and checks that QEMU exits with a
+/// failure code after the firmware logged `want` at ERROR level. Returns what it saw.
+fn selftest(qemu: &Path, feature: &'static str, want: &str) -> Result<String> {
+    let image = Image {
+        board: feature,
+        features: &[],
+        flash_limit: 0,
+        ram_limit: 0,
+    };
+    let elf = build_with(&image, &["--features", feature])?;
+    let table = defmt_decoder::Table::parse(&std::fs::read(&elf)?)?
+        .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
+    let mut firmware = Qemu::start(qemu, &elf).context("starting QEMU")?;
+    let status = firmware
+        .wait_exit(std::time::Duration::from_secs(20))?
+        .ok_or_else(|| anyhow!("QEMU did not exit"))?;
+    let streams = firmware.stop();
+    let lines = decode(&table, streams.last().map_or(&[][..], |s| s.as_slice()))?;
+    let last_error = lines
+        .iter()
+        .rev()
+        .find(|(level, _)| level == "ERROR")
+        .map(|(_, m)| m.clone());
+    match (status.code(), last_error) {
+        (Some(code), Some(line)) if code != 0 && line.contains(want) => {
+            Ok(format!("QEMU exit code {code}, ERROR {line:?}"))
+        }
+        (code, line) => {
+            bail!("QEMU exit code {code:?}, last ERROR line {line:?}, expected {want:?}")
+        }
+    }
 }
 
 /// Runs one scenario in its own QEMU; returns the outcome and any golden-file problems.
@@ -327,12 +376,18 @@ fn ensure_qemu() -> Result<PathBuf> {
 
 /// Builds one board's image in its own target directory; returns the ELF.
 fn build(image: &Image) -> Result<PathBuf> {
+    build_with(image, &[])
+}
+
+/// Builds `image` with `extra` cargo arguments, in a target directory named after the image.
+fn build_with(image: &Image, extra: &[&str]) -> Result<PathBuf> {
     let firmware = project_root().join("firmware");
     let target_dir = firmware.join("target").join(image.board);
     let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(&firmware)
         .args(["build", "--release", "--quiet"])
         .args(image.features)
+        .args(extra)
         .arg("--target-dir")
         .arg(&target_dir)
         .status()

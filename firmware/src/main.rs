@@ -22,7 +22,8 @@ use defmt_semihosting as _;
 /// Bytes the link queue holds: two maximal frames.
 const LINK_QUEUE_LEN: usize = 2 * dp_link::MAX_FRAME_LEN;
 
-/// The drive application until the PROFIdrive crate lands (see `adapter::loopback_app`).
+/// The application behind the slave until the firmware has its drive link (issue 6): the
+/// loopback of `adapter::loopback_app`. `profidrive::ProfidriveApp` takes its place then.
 type DriveApp = dp_slave::testing::EchoApp;
 
 /// The failure paths, proven by `cargo xtask qemu-test` on images built for it.

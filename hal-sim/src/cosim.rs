@@ -103,8 +103,10 @@ impl Master {
         let io = dp_slave::cfg::io_sizes(&setup.config).unwrap_or_default();
         let options = PeripheralOptions {
             ident_number: setup.ident_number,
-            user_parameters: Some(Box::leak(setup.user_prm.clone().into_boxed_slice())),
-            config: Some(Box::leak(setup.config.clone().into_boxed_slice())),
+            // profirust borrows these for the master's lifetime ('static here); a few bytes
+            // per master started, for the length of a test run.
+            user_parameters: Some(setup.user_prm.clone().leak()),
+            config: Some(setup.config.clone().leak()),
             max_tsdr: setup.baud.default_max_tsdr_bits(),
             fail_safe: true,
             ..Default::default()

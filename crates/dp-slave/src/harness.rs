@@ -54,6 +54,7 @@ impl<A: Application> Bus<A> {
         let io = crate::cfg::io_sizes(&options.config).unwrap_or_default();
         let peripheral_options = PeripheralOptions {
             ident_number: options.ident_number,
+            // profirust borrows these for the master's lifetime: leaked, a few bytes per test.
             user_parameters: Some(options.user_prm.leak()),
             config: Some(options.config.leak()),
             max_tsdr: 60,

@@ -265,11 +265,16 @@ impl DriveSim {
             LinkFault::CrcError => return Err(DriveError::CrcError),
             LinkFault::Noise => return Err(DriveError::BusNoise),
         }
+        self.note_contact();
+        Ok(())
+    }
+
+    /// The adapter reached the drive: the communication watchdog restarts, AL.061 clears.
+    fn note_contact(&mut self) {
         self.last_contact_us = self.now_us;
         if self.warning == Some(ALARM_COMMUNICATION_LOST) {
             self.warning = None;
         }
-        Ok(())
     }
 
     /// A register read, as the Modbus slave serves it.
@@ -390,10 +395,7 @@ impl DriveSim {
         if body.len() < 2 || body[0] != MODBUS_ADDRESS || CRC.checksum(body).to_le_bytes() != crc {
             return None;
         }
-        self.last_contact_us = self.now_us;
-        if self.warning == Some(ALARM_COMMUNICATION_LOST) {
-            self.warning = None;
-        }
+        self.note_contact();
         let function = body[1];
         let word = |at: usize| {
             body.get(at..at + 2)

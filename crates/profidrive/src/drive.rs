@@ -52,6 +52,19 @@ pub trait Drive {
     fn read_status(&mut self) -> Result<u16, DriveError>;
 }
 
+/// A parameter write from a parameter channel (either profile): to non-volatile memory, and
+/// not at all when the drive already holds the value (its memory wears; both manuals warn).
+pub fn write_if_changed(
+    drive: &mut impl Drive,
+    code: FunctionCode,
+    value: u16,
+) -> Result<(), DriveError> {
+    if drive.read(code).is_ok_and(|v| v == value) {
+        return Ok(());
+    }
+    drive.write(code, value, true)
+}
+
 /// A fault record entry (seed 000, DE.xx): bit 7 fault, bit 6 warning, bits 5-0 the number
 /// after "Fu." or "AL." (0x8C is Fu.012, 0x64 is AL.036).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -15,7 +15,7 @@
 //! - Data sets (PNU 0, IND 1-99) belong to ABB drives; this drive has none: error 0.
 
 use crate::codes::FunctionCode;
-use crate::drive::{Drive, DriveError};
+use crate::drive::{write_if_changed, Drive, DriveError};
 use crate::pkw::PKW_BYTES;
 use crate::ppo::MAX_PZD_WORDS;
 
@@ -481,12 +481,7 @@ impl Parameters {
                     return err(error::READ_ONLY);
                 }
                 let new = request.value as u16;
-                let unchanged = drive.read(code).is_ok_and(|v| v == new);
-                match if unchanged {
-                    Ok(())
-                } else {
-                    drive.write(code, new, true)
-                } {
+                match write_if_changed(drive, code, new) {
                     Ok(()) => request.reply(response::ARRAY_WORD, u32::from(new)),
                     Err(e) => err(link(e)),
                 }

@@ -14,7 +14,7 @@
 //! write (the drive's non-volatile memory wears).
 
 use crate::codes::{CodeKind, FunctionCode};
-use crate::drive::{Drive, DriveError};
+use crate::drive::{write_if_changed, Drive, DriveError};
 
 pub const PKW_BYTES: usize = 8;
 
@@ -115,21 +115,13 @@ pub fn execute(drive: &mut impl Drive, request: &Request) -> Reply {
         Task::Write => match code.kind() {
             None => refused(DriveError::IllegalAddress),
             Some(CodeKind::Status | CodeKind::FaultRecord) => refused(DriveError::AccessRestricted),
-            Some(CodeKind::Application) => {
-                let unchanged = drive.read(code).is_ok_and(|v| v == request.value);
-                let written = if unchanged {
-                    Ok(())
-                } else {
-                    drive.write(code, request.value, true)
-                };
-                match written {
-                    Ok(()) => Reply::Value {
-                        code,
-                        value: request.value,
-                    },
-                    Err(e) => refused(e),
-                }
-            }
+            Some(CodeKind::Application) => match write_if_changed(drive, code, request.value) {
+                Ok(()) => Reply::Value {
+                    code,
+                    value: request.value,
+                },
+                Err(e) => refused(e),
+            },
         },
     }
 }

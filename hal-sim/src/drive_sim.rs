@@ -20,6 +20,13 @@
 //! | D0.01 | set frequency, 0.01 Hz |
 //! | D0.04 | output current, 0.01 A (proportional to frequency, a model) |
 //! | DE.00 | the newest fault or warning record (bit 7 fault, bit 6 warning) |
+//! | 0x2201..0x2209 | PZD2..PZD10 out mapping: the code each writes (0: none), volatile |
+//! | 0x2301..0x2309 | PZD2..PZD10 in mapping: the code each reads (0: none), volatile |
+//! | 0x2400.. | PZD in block: status word, then the mapped values (read) |
+//! | 0x2500.. | PZD out block: control word, then the mapped values (write, not persisted) |
+//!
+//! Functions: 03h read holding registers, 06h write single register, 17h read/write multiple
+//! registers (the writes first, as the Modbus specification orders it).
 
 use profidrive::codes::{CodeKind, FunctionCode};
 use profidrive::drive::{Drive, DriveError, FaultRecord};
@@ -76,6 +83,9 @@ pub struct DriveSim {
     last_contact_us: u64,
     now_us: u64,
     pub link_fault: LinkFault,
+    /// The PZD2..PZD10 mapping registers (out, in).
+    pzd_out_map: [u16; 9],
+    pzd_in_map: [u16; 9],
     /// Writes to non-volatile memory.
     pub persistent_writes: u32,
     pub fault_resets: u32,
@@ -99,6 +109,8 @@ impl Default for DriveSim {
             last_contact_us: 0,
             now_us: 0,
             link_fault: LinkFault::None,
+            pzd_out_map: [0; 9],
+            pzd_in_map: [0; 9],
             persistent_writes: 0,
             fault_resets: 0,
         }
@@ -279,6 +291,21 @@ impl DriveSim {
 
     /// A register read, as the Modbus slave serves it.
     pub fn read_register(&self, register: u16) -> Result<u16, DriveError> {
+        if let Some(slot) = map_slot(register, PZD_OUT_MAP) {
+            return Ok(self.pzd_out_map[slot]);
+        }
+        if let Some(slot) = map_slot(register, PZD_IN_MAP) {
+            return Ok(self.pzd_in_map[slot]);
+        }
+        if register == PZD_IN_BLOCK {
+            return Ok(self.status_word());
+        }
+        if let Some(slot) = map_slot(register, PZD_IN_BLOCK) {
+            return match self.pzd_in_map[slot] {
+                0 => Ok(0),
+                code => self.read_register(code),
+            };
+        }
         Ok(match register {
             STATUS_WORD => self.status_word(),
             CONTROL_WORD => self.control_word,
@@ -305,6 +332,23 @@ impl DriveSim {
         value: u16,
         persist: bool,
     ) -> Result<(), DriveError> {
+        if let Some(slot) = map_slot(register, PZD_OUT_MAP) {
+            self.pzd_out_map[slot] = mapped_code(value)?;
+            return Ok(());
+        }
+        if let Some(slot) = map_slot(register, PZD_IN_MAP) {
+            self.pzd_in_map[slot] = mapped_code(value)?;
+            return Ok(());
+        }
+        if register == PZD_OUT_BLOCK {
+            return self.write_register(CONTROL_WORD, value, false);
+        }
+        if let Some(slot) = map_slot(register, PZD_OUT_BLOCK) {
+            return match self.pzd_out_map[slot] {
+                0 => Ok(()),
+                code => self.write_register(code, value, false),
+            };
+        }
         if register == CONTROL_WORD {
             if rose(self.control_word, value, control::FAULT_RESET) {
                 self.fault_resets += 1;
@@ -355,10 +399,26 @@ impl Drive for DriveSim {
     }
 }
 
+/// PZD2..PZD10's slot (0..=8) in a mapping register set or block starting at `base`.
+fn map_slot(register: u16, base: u16) -> Option<usize> {
+    let n = register.checked_sub(base)?;
+    (1..=9).contains(&n).then(|| usize::from(n - 1))
+}
+
+/// A code a mapping register may hold: 0 or a register the drive has.
+fn mapped_code(value: u16) -> Result<u16, DriveError> {
+    match value {
+        0 | CONTROL_WORD | STATUS_WORD => Ok(value),
+        _ if FunctionCode(value).kind().is_some() => Ok(value),
+        _ => Err(DriveError::InvalidData),
+    }
+}
+
 /// The drive's Modbus RTU slave address.
 pub const MODBUS_ADDRESS: u8 = drive_link::DRIVE_ADDRESS;
 const READ_HOLDING: u8 = 0x03;
 const WRITE_SINGLE: u8 = 0x06;
+use drive_link::{PZD_IN_BLOCK, PZD_IN_MAP, PZD_OUT_BLOCK, PZD_OUT_MAP, READ_WRITE_MULTIPLE};
 const EXCEPTION: u8 = 0x80;
 const CRC: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_MODBUS);
 
@@ -417,9 +477,14 @@ impl DriveSim {
                 result.map(|()| frame)
             }
             (WRITE_SINGLE, Some(register), Some(value), 6) => self
-                .write_register(register, value, register != CONTROL_WORD)
+                .write_register(register, value, is_parameter(register))
                 .map(|()| body.to_vec()),
-            (READ_HOLDING | WRITE_SINGLE, _, _, _) => Err(DriveError::InvalidData),
+            (READ_WRITE_MULTIPLE, Some(read_first), Some(read_count @ 1..=16), _) => {
+                self.read_write_multiple(body, read_first, read_count)
+            }
+            (READ_HOLDING | WRITE_SINGLE | READ_WRITE_MULTIPLE, _, _, _) => {
+                Err(DriveError::InvalidData)
+            }
             _ => Err(DriveError::IllegalOperation),
         };
         let frame = match answer {
@@ -436,6 +501,51 @@ impl DriveSim {
             _ => {}
         }
         Some(frame)
+    }
+}
+
+/// The length of the request frame that starts with `prefix`, once the prefix tells it
+/// (a master's requests are delimited by their length, as the drive's UART sees them).
+pub fn request_len(prefix: &[u8]) -> Option<usize> {
+    match *prefix.get(1)? {
+        READ_WRITE_MULTIPLE => prefix.get(10).map(|count| 13 + usize::from(*count)),
+        _ => Some(8),
+    }
+}
+
+/// Writes over Modbus go to non-volatile memory for the application parameters only.
+fn is_parameter(register: u16) -> bool {
+    FunctionCode(register).kind() == Some(CodeKind::Application)
+}
+
+impl DriveSim {
+    /// 17h: the writes (run-time values), then the reads; the answer carries the reads.
+    fn read_write_multiple(
+        &mut self,
+        body: &[u8],
+        read_first: u16,
+        read_count: u16,
+    ) -> Result<Vec<u8>, DriveError> {
+        let word = |at: usize| u16::from_be_bytes([body[at], body[at + 1]]);
+        if body.len() < 11 {
+            return Err(DriveError::InvalidData);
+        }
+        let (write_first, write_count, bytes) = (word(6), word(8), usize::from(body[10]));
+        if !(1..=16).contains(&write_count)
+            || bytes != 2 * usize::from(write_count)
+            || body.len() != 11 + bytes
+        {
+            return Err(DriveError::InvalidData);
+        }
+        for i in 0..write_count {
+            let value = word(11 + 2 * usize::from(i));
+            self.write_register(write_first + i, value, false)?;
+        }
+        let mut frame = vec![MODBUS_ADDRESS, READ_WRITE_MULTIPLE, (read_count * 2) as u8];
+        for r in read_first..read_first + read_count {
+            frame.extend_from_slice(&self.read_register(r)?.to_be_bytes());
+        }
+        Ok(frame)
     }
 }
 

@@ -8,11 +8,17 @@
 //! when the answer is complete, refused, garbled or late. Late and garbled answers are retried.
 //! Frames are built and checked by rmodbus (function 03h read, 06h write, CRC-16).
 //!
-//! [`BlockingDrive`] puts `profidrive::Drive` on top for a task that may wait (the firmware's
-//! PZD cycle, at a priority below the DP link, so a Data_Exchange never waits for the drive).
+//! [`LinkedDrive`] is the adapter's drive: `profidrive::Drive` over the master without ever
+//! waiting. It runs its own PZD cycle (one 17h read/write transaction per cycle, back to
+//! back), so a Data_Exchange only copies process images; parameter requests are queued
+//! between cycles and answered on a later service (`Drive::take_deferred`).
+//! [`BlockingDrive`] is the same trait for host tests that may wait for each answer.
 
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
+
+mod linked;
+pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US};
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind as UartError, Read, Write};
 use heapless09::Vec;
@@ -27,12 +33,32 @@ pub const DRIVE_ADDRESS: u8 = 1;
 pub const CONTROL_WORD_REGISTER: u16 = 0x2000;
 pub const STATUS_WORD_REGISTER: u16 = 0x2100;
 
+/// The most process data words a PPO carries.
+pub const MAX_PZD_WORDS: usize = 10;
+
+/// The drive's process-data registers (the simulator documents them): PZD n (2..=10) out is
+/// written to the code held in `PZD_OUT_MAP + n - 1`, PZD n in is read from the code held in
+/// `PZD_IN_MAP + n - 1` (0: none). The block at `PZD_OUT_BLOCK` takes PZD 1..=N out (PZD1 is
+/// the control word); the block at `PZD_IN_BLOCK` gives PZD 1..=N in (PZD1 is the status word).
+pub const PZD_OUT_MAP: u16 = 0x2200;
+pub const PZD_IN_MAP: u16 = 0x2300;
+pub const PZD_IN_BLOCK: u16 = 0x2400;
+pub const PZD_OUT_BLOCK: u16 = 0x2500;
+
+/// Modbus function 17h, read/write multiple registers: one transaction per PZD cycle.
+pub const READ_WRITE_MULTIPLE: u8 = 0x17;
+
 /// What a transaction does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Op {
     Read(u16),
     Write(u16, u16),
+    /// A PZD cycle: `out[..words]` to the out block, then `words` registers of the in block.
+    Exchange {
+        words: u8,
+        out: [u16; MAX_PZD_WORDS],
+    },
 }
 
 /// How a transaction ended.
@@ -41,6 +67,8 @@ pub enum Op {
 pub enum Outcome {
     Value(u16),
     Written,
+    /// The in block of an exchange (`words` of them valid).
+    Values([u16; MAX_PZD_WORDS]),
     Failed(DriveError),
 }
 
@@ -53,13 +81,20 @@ pub struct Config {
 }
 
 impl Default for Config {
+    /// The drive answers within 100 µs on its board-to-board link; 2 ms is generous, and
+    /// three attempts find a lost drive in about 6 ms.
     fn default() -> Self {
         Config {
-            timeout_us: 50_000,
+            timeout_us: 2_000,
             retries: 2,
         }
     }
 }
+
+/// The link's UART rate: 2.25 Mbit/s, the fastest exact rate of the production board's
+/// USART2 (36 MHz / 16), 8E1 (11 bits per character) as Modbus RTU asks.
+pub const LINK_BAUD: u32 = 2_250_000;
+pub const BITS_PER_CHARACTER: u32 = 11;
 
 /// Counters for reports and diagnosis.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -84,7 +119,7 @@ pub struct ModbusMaster<U> {
     uart: U,
     config: Config,
     pending: Option<Pending>,
-    tx: Vec<u8, 16>,
+    tx: Vec<u8, 40>,
     tx_pos: usize,
     rx: Vec<u8, 32>,
     /// The UART reported noise, parity or framing errors during this answer.
@@ -131,6 +166,12 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
         self.pending.is_some()
     }
 
+    /// When the answer to the request on the line is late, if one is awaited.
+    pub fn deadline(&self) -> Option<u64> {
+        let sent_at = self.pending.as_ref()?.sent_at?;
+        Some(sent_at + self.config.timeout_us)
+    }
+
     /// Queues a transaction; refused while one is under way.
     pub fn start(&mut self, op: Op) -> Result<(), Op> {
         if self.pending.is_some() {
@@ -144,8 +185,12 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
             Op::Write(register, value) => {
                 request.generate_set_holding(register, value, &mut self.tx)
             }
+            Op::Exchange { words, out } => {
+                exchange_request(&out[..usize::from(words)], &mut self.tx);
+                Ok(())
+            }
         };
-        // Cannot fail: 8 bytes fit the 16-byte buffer.
+        // Cannot fail: the longest request (an exchange of 10 words, 33 bytes) fits.
         debug_assert!(built.is_ok());
         self.pending = Some(Pending {
             op,
@@ -219,6 +264,7 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
             (Some(function), _) if function & 0x80 != 0 => EXCEPTION_LEN,
             (_, Op::Read(_)) => READ_ANSWER_LEN,
             (_, Op::Write(..)) => WRITE_ANSWER_LEN,
+            (_, Op::Exchange { words, .. }) => 5 + 2 * usize::from(words),
         };
         self.rx.len() >= expected
     }
@@ -252,6 +298,9 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
                 Ok(()) => Err(counted(&mut self.stats, DriveError::BusNoise)),
                 Err(kind) => Err(counted(&mut self.stats, drive_error(kind))),
             },
+            Op::Exchange { words, .. } => exchange_answer(&self.rx, usize::from(words))
+                .map(Outcome::Values)
+                .map_err(|e| counted(&mut self.stats, e)),
         }
     }
 
@@ -271,6 +320,53 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
         self.noise = false;
         true
     }
+}
+
+// rmodbus (0.13) builds and parses functions 01h-10h only; 17h is framed here, with the CRC
+// from the `crc` crate.
+const MODBUS_CRC: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_MODBUS);
+
+/// The request of an exchange: write `out` to the out block, read as many from the in block.
+fn exchange_request(out: &[u16], tx: &mut Vec<u8, 40>) {
+    let words = out.len() as u16;
+    tx.clear();
+    let _ = tx.extend_from_slice(&[DRIVE_ADDRESS, READ_WRITE_MULTIPLE]);
+    for field in [PZD_IN_BLOCK, words, PZD_OUT_BLOCK, words] {
+        let _ = tx.extend_from_slice(&field.to_be_bytes());
+    }
+    let _ = tx.push(2 * words as u8);
+    for value in out {
+        let _ = tx.extend_from_slice(&value.to_be_bytes());
+    }
+    let crc = MODBUS_CRC.checksum(tx);
+    let _ = tx.extend_from_slice(&crc.to_le_bytes());
+}
+
+/// The in block from an exchange's answer (or the drive's exception).
+fn exchange_answer(rx: &[u8], words: usize) -> Result<[u16; MAX_PZD_WORDS], DriveError> {
+    let (body, crc) = rx.split_at(rx.len().saturating_sub(2));
+    if body.len() < 3 || MODBUS_CRC.checksum(body).to_le_bytes() != crc {
+        return Err(DriveError::CrcError);
+    }
+    if body[0] != DRIVE_ADDRESS {
+        return Err(DriveError::BusNoise);
+    }
+    if body[1] == READ_WRITE_MULTIPLE | 0x80 {
+        return Err(match body[2] {
+            0x01 => DriveError::IllegalOperation,
+            0x02 => DriveError::IllegalAddress,
+            0x03 => DriveError::InvalidData,
+            _ => DriveError::DriveFault,
+        });
+    }
+    if body[1] != READ_WRITE_MULTIPLE || usize::from(body[2]) != 2 * words {
+        return Err(DriveError::BusNoise);
+    }
+    let mut values = [0u16; MAX_PZD_WORDS];
+    for (value, bytes) in values.iter_mut().zip(body[3..].chunks_exact(2)) {
+        *value = u16::from_be_bytes([bytes[0], bytes[1]]);
+    }
+    Ok(values)
 }
 
 /// `profidrive::Drive` over the master, waiting for each answer with `now` as the clock.

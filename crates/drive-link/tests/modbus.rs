@@ -136,8 +136,8 @@ fn no_answer_times_out_after_the_retries() {
     uart.done();
 }
 
-/// A UART wired to the drive simulator: a complete request frame (8 bytes, as this master
-/// sends) gets the simulator's answer, readable at once.
+/// A UART wired to the drive simulator: a complete request frame gets the simulator's
+/// answer, readable at once.
 struct SimUart {
     drive: DriveSim,
     written: Vec<u8>,
@@ -152,7 +152,7 @@ impl embedded_hal_nb::serial::ErrorType for SimUart {
 impl embedded_hal_nb::serial::Write<u8> for SimUart {
     fn write(&mut self, word: u8) -> nb::Result<(), Self::Error> {
         self.written.push(word);
-        if self.written.len() == 8 {
+        if drive_sim::request_len(&self.written) == Some(self.written.len()) {
             let request = std::mem::take(&mut self.written);
             if let Some(answer) = self.drive.modbus(&request) {
                 self.to_read.extend(answer);
@@ -239,4 +239,111 @@ fn the_drive_simulator_over_modbus() {
     drive.master.uart_mut().drive.link_fault = LinkFault::None;
     assert_eq!(drive.read(f0_29), Ok(2500));
     let _ = drive_sim::MODBUS_ADDRESS;
+}
+
+fn sim_uart() -> SimUart {
+    SimUart {
+        drive: DriveSim::default(),
+        written: Vec::new(),
+        to_read: VecDeque::new(),
+        noisy_reported: false,
+    }
+}
+
+mod linked {
+    use super::*;
+    use dp_slave::{Application, Instant};
+    use drive_link::LinkedDrive;
+    use profidrive::pkw::{Request, Task};
+    use profidrive::ppo::Ppo;
+    use profidrive::prm::UserPrm;
+    use profidrive::words::{control, status};
+    use profidrive::ProfidriveApp;
+
+    const START: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
+
+    type App = ProfidriveApp<LinkedDrive<SimUart>>;
+
+    fn app(ppo: Ppo) -> App {
+        let master = ModbusMaster::new(sim_uart(), Config::default());
+        let mut app = ProfidriveApp::new(LinkedDrive::new(master));
+        assert!(app.accept_user_prm(&UserPrm::DEFAULT.encode()));
+        assert!(app.accept_cfg(ppo.cfg()).is_some());
+        app
+    }
+
+    fn sim(app: &mut App) -> &mut DriveSim {
+        &mut app.drive_mut().master_mut().uart_mut().drive
+    }
+
+    /// One data exchange with PPO1 outputs (PKW request, CW, PZD2), then `polls` turns of
+    /// the link 100 µs apart; returns the inputs of a data exchange after them.
+    fn exchange(app: &mut App, now: &mut u64, pkw: [u8; 8], cw: u16, pzd2: u16, polls: u32) -> Vec<u8> {
+        let mut outputs = pkw.to_vec();
+        outputs.extend_from_slice(&cw.to_be_bytes());
+        outputs.extend_from_slice(&pzd2.to_be_bytes());
+        app.outputs(Instant::from_micros(*now), &outputs);
+        for _ in 0..polls {
+            app.service(Instant::from_micros(*now));
+            app.drive_mut().poll(*now);
+            sim(app).advance(100);
+            *now += 100;
+        }
+        let mut inputs = vec![0u8; 12];
+        app.inputs(Instant::from_micros(*now), &mut inputs);
+        inputs
+    }
+
+    fn word(bytes: &[u8], at: usize) -> u16 {
+        u16::from_be_bytes([bytes[at], bytes[at + 1]])
+    }
+
+    #[test]
+    fn pzd_goes_through_the_mapped_block_and_pkw_is_answered_later() {
+        let mut app = app(Ppo::Ppo1);
+        let mut now = 1_000;
+        let read_f029 = Request {
+            task: Task::Read,
+            code: profidrive::codes::FunctionCode(0xF029),
+            value: 0,
+        }
+        .encode();
+        // A data exchange only copies: nothing has reached the drive yet.
+        exchange(&mut app, &mut now, [0; 8], START, 2500, 0);
+        assert_eq!(sim(&mut app).control_word(), 0);
+        exchange(&mut app, &mut now, [0; 8], START, 2500, 5);
+        assert_eq!(sim(&mut app).control_word(), START);
+        assert_eq!(sim(&mut app).read_register(0xF029), Ok(2500));
+        let inputs = exchange(&mut app, &mut now, read_f029, START, 2500, 0);
+        assert_eq!(word(&inputs, 0), 0, "no PKW reply before the drive answered");
+        let inputs = exchange(&mut app, &mut now, read_f029, START, 2500, 2);
+        // The PKW read was queued and answered on a later service: reply 1, F0.29's value.
+        assert_eq!(&inputs[..8], &[0x10, 0xF0, 0x29, 0x00, 0x00, 0x00, 0x09, 0xC4]);
+        assert_eq!(word(&inputs, 8) & status::RUNNING, status::RUNNING);
+        // 1 s later, the output frequency (RdPZD2 = D0.00) follows the 5 s ramp to 25.00 Hz.
+        let inputs = exchange(&mut app, &mut now, read_f029, START, 2500, 10_000);
+        assert_eq!(word(&inputs, 10), 1000);
+        // The mapping was written once, then only cycles ran.
+        let figures = app.drive().figures;
+        assert_eq!((figures.mapping_writes, figures.requests), (2, 1));
+        assert!(figures.cycles > 10_000);
+    }
+
+    #[test]
+    fn a_lost_drive_shows_in_pzd1_and_the_link_recovers_with_the_mapping() {
+        let mut app = app(Ppo::Ppo1);
+        let mut now = 1_000;
+        exchange(&mut app, &mut now, [0; 8], START, 2500, 5);
+        sim(&mut app).link_fault = LinkFault::Disconnected;
+        // Three attempts of 2 ms each.
+        let inputs = exchange(&mut app, &mut now, [0; 8], START, 2500, 70);
+        assert_eq!(word(&inputs, 8), 0xC022);
+        assert_eq!(app.link_error(), Some(DriveError::NoAnswer));
+        // The drive comes back, having lost its volatile mapping (a restart).
+        *sim(&mut app) = DriveSim::default();
+        let inputs = exchange(&mut app, &mut now, [0; 8], START, 2600, 70);
+        assert_ne!(word(&inputs, 8) & 0xC000, 0xC000);
+        assert_eq!(sim(&mut app).read_register(0xF029), Ok(2600));
+        assert_eq!(sim(&mut app).read_register(0x2301), Ok(0xD000));
+    }
 }

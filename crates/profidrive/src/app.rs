@@ -74,6 +74,8 @@ pub struct ProfidriveApp<D> {
     params: Parameters,
     /// When each fault of the buffer happened, for 948 (seconds since).
     fault_at: [Option<Instant>; FAULT_SUBINDICES.len()],
+    /// A drive fault seen at this time and not yet in the fault buffer.
+    fault_record_due: Option<Instant>,
 }
 
 /// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
@@ -100,6 +102,7 @@ impl<D: Drive> ProfidriveApp<D> {
             rated_reference: DEFAULT_RATED_REFERENCE,
             params: Parameters::default(),
             fault_at: [None; FAULT_SUBINDICES.len()],
+            fault_record_due: None,
         }
     }
 
@@ -200,9 +203,8 @@ impl<D: Drive> ProfidriveApp<D> {
                 OperationMode::Profidrive | OperationMode::AbbDrives => {
                     let (params, drive) = (&mut self.params, &mut self.drive);
                     self.pkw.service_with(|bytes| {
-                        params
-                            .execute(&Frame::decode(bytes), ppo.number(), drive)
-                            .encode()
+                        let reply = params.execute(&Frame::decode(bytes), ppo.number(), drive);
+                        (!drive.take_deferred()).then(|| reply.encode())
                     });
                 }
             }
@@ -216,12 +218,6 @@ impl<D: Drive> ProfidriveApp<D> {
         apply: &[u16; MAX_PZD_WORDS],
         words: usize,
     ) -> Result<(), DriveError> {
-        let mut first_error = None;
-        let mut note = |r: Result<(), DriveError>| {
-            if let Err(e) = r {
-                first_error.get_or_insert(e);
-            }
-        };
         let profidrive = self.prm.operation.translates();
         let units = self.prm.operation.rated_units();
         let (targets, sources) = self.pzd_mapping();
@@ -238,30 +234,24 @@ impl<D: Drive> ProfidriveApp<D> {
             to_drive[0] = d.control_word;
             to_drive[1] = d.reference;
         }
-        note(self.drive.write_control(to_drive[0]));
-        for (target, value) in targets.iter().zip(&to_drive[1..words]) {
-            if let Some(target) = target {
-                note(self.drive.write(*target, *value, false));
-            }
-        }
         let mut from_drive = self.pzd_in;
+        // The drive's own status word, not the one the master saw (translated, or 0xC0xx).
+        from_drive[0] = self.drive_status;
         let was_faulted = self.drive_status & status::FAULT != 0;
-        match self.drive.read_status() {
-            Ok(sw) => {
-                self.drive_status = sw;
-                from_drive[0] = sw;
-            }
-            Err(e) => note(Err(e)),
-        }
-        for (source, value) in sources.iter().zip(&mut from_drive[1..words]) {
-            match source.map(|code| self.drive.read(code)) {
-                Some(Ok(v)) => *value = v,
-                Some(Err(e)) => note(Err(e)),
-                None => *value = 0,
-            }
-        }
+        let result = self.drive.exchange_pzd(
+            &to_drive[..words],
+            &targets[..words - 1],
+            &mut from_drive[..words],
+            &sources[..words - 1],
+        );
+        self.drive_status = from_drive[0];
         if !was_faulted && self.drive_status & status::FAULT != 0 {
-            self.record_fault(now);
+            self.fault_record_due = Some(now);
+        }
+        if let Some(at) = self.fault_record_due {
+            if self.record_fault(at) {
+                self.fault_record_due = None;
+            }
         }
         if profidrive {
             self.profile.observe(self.drive_status);
@@ -282,13 +272,10 @@ impl<D: Drive> ProfidriveApp<D> {
             self.params.status_word = from_drive[0];
         }
         self.pzd_in = from_drive;
-        match first_error {
-            Some(e) => {
-                self.pzd_in[0] = PZD1_LINK_ERROR | u16::from(e.code());
-                Err(e)
-            }
-            None => Ok(()),
+        if let Err(e) = result {
+            self.pzd_in[0] = PZD1_LINK_ERROR | u16::from(e.code());
         }
+        result
     }
 
     /// What PZD2..PZD10 write and read. Vendor: the RdPZD/WrPZD table of the user parameters.
@@ -308,12 +295,13 @@ impl<D: Drive> ProfidriveApp<D> {
 
     /// A new drive fault: into the fault buffer (945 codes, 947 numbers, 948 times, 952 count), the
     /// newest at sub-index 1 and the older ones moved on by 8 (sub-indices 9, 17, .., 41).
-    fn record_fault(&mut self, now: Instant) {
-        let number = match self
-            .drive
-            .read(FunctionCode(0xDE00))
-            .map(|r| FaultRecord::from_byte(r as u8))
-        {
+    /// `false`: the drive has not answered the fault record yet; try again.
+    fn record_fault(&mut self, now: Instant) -> bool {
+        let record = self.drive.read(FunctionCode(0xDE00));
+        if self.drive.take_deferred() {
+            return false;
+        }
+        let number = match record.map(|r| FaultRecord::from_byte(r as u8)) {
             Ok(FaultRecord::Fault(n)) => u16::from(n),
             _ => 0,
         };
@@ -333,6 +321,7 @@ impl<D: Drive> ProfidriveApp<D> {
         self.fault_at.copy_within(..FAULT_SUBINDICES.len() - 1, 1);
         self.fault_at[0] = Some(now);
         self.diag_changed = true;
+        true
     }
 
     fn note_link(&mut self, now: Instant, error: Option<DriveError>) {

@@ -43,6 +43,11 @@ pub const PZD1_LINK_ERROR: u16 = 0xC000;
 
 /// What the adapter needs of a drive. Registers are addressed by function code; the control
 /// and status words have their own calls (the drive link knows where they live).
+///
+/// A drive behind a slow link may answer later: it then says so through
+/// [`Drive::take_deferred`], and the caller repeats the same calls on a later service until
+/// they are answered. [`Drive::exchange_pzd`] never waits; a linked drive serves it from the
+/// values of its own cycle.
 pub trait Drive {
     fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError>;
     /// Writes an application parameter. `persist`: the value goes to non-volatile memory
@@ -50,6 +55,54 @@ pub trait Drive {
     fn write(&mut self, code: FunctionCode, value: u16, persist: bool) -> Result<(), DriveError>;
     fn write_control(&mut self, control_word: u16) -> Result<(), DriveError>;
     fn read_status(&mut self) -> Result<u16, DriveError>;
+
+    /// One process-data cycle. `out[0]` is the control word and `out[i]` goes to
+    /// `targets[i - 1]`; `inp[0]` gets the status word and `inp[i]` the value of
+    /// `sources[i - 1]` (0 for none). On an error the words that could not be read keep their
+    /// value, and the first error is returned. The default does it register by register.
+    fn exchange_pzd(
+        &mut self,
+        out: &[u16],
+        targets: &[Option<FunctionCode>],
+        inp: &mut [u16],
+        sources: &[Option<FunctionCode>],
+    ) -> Result<(), DriveError> {
+        let mut first_error = None;
+        let mut note = |r: Result<(), DriveError>| {
+            if let Err(e) = r {
+                first_error.get_or_insert(e);
+            }
+        };
+        if let Some(cw) = out.first() {
+            note(self.write_control(*cw));
+        }
+        for (target, value) in targets.iter().zip(out.iter().skip(1)) {
+            if let Some(target) = target {
+                note(self.write(*target, *value, false));
+            }
+        }
+        if let Some(sw) = inp.first_mut() {
+            match self.read_status() {
+                Ok(v) => *sw = v,
+                Err(e) => note(Err(e)),
+            }
+        }
+        for (source, value) in sources.iter().zip(inp.iter_mut().skip(1)) {
+            match source.map(|code| self.read(code)) {
+                Some(Ok(v)) => *value = v,
+                Some(Err(e)) => note(Err(e)),
+                None => *value = 0,
+            }
+        }
+        first_error.map_or(Ok(()), Err)
+    }
+
+    /// Whether the reads and writes since the last call were only queued: their results are
+    /// not known yet, and the caller must make the same calls again later (the drive keeps
+    /// the answers until the calls are repeated). A drive that answers at once never defers.
+    fn take_deferred(&mut self) -> bool {
+        false
+    }
 }
 
 /// A parameter write from a parameter channel (either profile): to non-volatile memory, and

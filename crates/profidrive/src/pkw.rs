@@ -146,14 +146,25 @@ impl PkwServer {
 
     /// Executes a pending request of the vendor profile, if any.
     pub fn service(&mut self, drive: &mut impl Drive) {
-        self.service_with(|bytes| execute(drive, &Request::decode(bytes)).encode());
+        self.service_with(|bytes| {
+            let reply = execute(drive, &Request::decode(bytes)).encode();
+            (!drive.take_deferred()).then_some(reply)
+        });
     }
 
-    /// Executes a pending request, if any, with the profile's `execute`.
-    pub fn service_with(&mut self, execute: impl FnOnce(&[u8; PKW_BYTES]) -> [u8; PKW_BYTES]) {
-        if let Some(bytes) = self.pending.take() {
-            self.reply = execute(&bytes);
-            self.answered = Some(bytes);
+    /// Executes a pending request, if any, with the profile's `execute`. `execute` returns
+    /// `None` while the drive has not answered yet: the request stays pending, the master
+    /// keeps seeing the previous reply, and the next service tries again.
+    pub fn service_with(
+        &mut self,
+        execute: impl FnOnce(&[u8; PKW_BYTES]) -> Option<[u8; PKW_BYTES]>,
+    ) {
+        if let Some(bytes) = self.pending {
+            if let Some(reply) = execute(&bytes) {
+                self.reply = reply;
+                self.answered = Some(bytes);
+                self.pending = None;
+            }
         }
     }
 

@@ -1,0 +1,313 @@
+//! The adapter's drive: `profidrive::Drive` over a [`ModbusMaster`] that never waits.
+//!
+//! Contract:
+//! - `exchange_pzd` only copies: the outputs into the out image, the in image (the last
+//!   cycle's answer) into the inputs, and the link's state as its result. [`LinkedDrive::poll`]
+//!   runs the cycles on its own, back to back: one 17h transaction writes PZD 1..N out and
+//!   reads PZD 1..N in. A cycle's answer is the drive's state after the cycle's writes.
+//! - The PZD mapping (the targets and sources of PZD2..N) lives in the drive's mapping
+//!   registers. The link writes the ones that changed before the next cycle, and all of them
+//!   again after the link failed (the drive may have restarted).
+//! - `read`, `write`, `write_control` and `read_status` are parameter requests: the first call
+//!   queues the transaction and defers ([`Drive::take_deferred`]); once answered, the same
+//!   call returns the answer. Answers are kept until a caller's sequence of calls is complete
+//!   (`take_deferred` returns false), so a read-then-write sequence replays to its end.
+//!   Parameter requests go before the next cycle.
+//! - No PZD configuration yet (before data exchange): the link reads the status word every
+//!   [`KEEPALIVE_US`], so a lost drive shows before the master asks, and the drive's own
+//!   communication alarm stays quiet.
+//! - Link errors (no answer, CRC, noise) hold until the next transaction succeeds.
+
+use crate::{ModbusMaster, Op, Outcome, CONTROL_WORD_REGISTER, MAX_PZD_WORDS, STATUS_WORD_REGISTER};
+use crate::{PZD_IN_MAP, PZD_OUT_MAP};
+use embedded_hal_nb::serial::{Read, Write};
+use heapless09::{Deque, Vec};
+use profidrive::codes::FunctionCode;
+use profidrive::drive::{Drive, DriveError};
+
+/// The status-word poll period while there is no PZD configuration.
+pub const KEEPALIVE_US: u64 = 100_000;
+
+/// Parameter requests waiting for the link.
+const QUEUE: usize = 4;
+/// Answers kept for callers that replay their calls.
+const ANSWERS: usize = 8;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum Job {
+    Request(Op),
+    /// Writes mapping register: `(out, slot)`, slot 0 is PZD2.
+    Map(bool, usize),
+    Cycle { words: usize },
+    KeepAlive,
+}
+
+/// Counters for reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkFigures {
+    pub cycles: u32,
+    pub requests: u32,
+    pub mapping_writes: u32,
+}
+
+pub struct LinkedDrive<U> {
+    master: ModbusMaster<U>,
+    /// PZD words of the current configuration (0: none).
+    words: usize,
+    out: [u16; MAX_PZD_WORDS],
+    /// Function codes of PZD2..PZD10 out and in (0: none).
+    targets: [u16; MAX_PZD_WORDS - 1],
+    sources: [u16; MAX_PZD_WORDS - 1],
+    /// What the drive's mapping registers hold, where known.
+    drive_targets: [Option<u16>; MAX_PZD_WORDS - 1],
+    drive_sources: [Option<u16>; MAX_PZD_WORDS - 1],
+    /// The last cycle's answer, for `in_words` words.
+    inp: [u16; MAX_PZD_WORDS],
+    in_words: usize,
+    link_error: Option<DriveError>,
+    job: Option<Job>,
+    requests: Deque<Op, QUEUE>,
+    answers: Vec<(Op, Result<Outcome, DriveError>), ANSWERS>,
+    deferred: bool,
+    next_keepalive_us: u64,
+    pub figures: LinkFigures,
+}
+
+impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
+    pub fn new(master: ModbusMaster<U>) -> LinkedDrive<U> {
+        LinkedDrive {
+            master,
+            words: 0,
+            out: [0; MAX_PZD_WORDS],
+            targets: [0; MAX_PZD_WORDS - 1],
+            sources: [0; MAX_PZD_WORDS - 1],
+            drive_targets: [None; MAX_PZD_WORDS - 1],
+            drive_sources: [None; MAX_PZD_WORDS - 1],
+            inp: [0; MAX_PZD_WORDS],
+            in_words: 0,
+            link_error: None,
+            job: None,
+            requests: Deque::new(),
+            answers: Vec::new(),
+            deferred: false,
+            next_keepalive_us: 0,
+            figures: LinkFigures::default(),
+        }
+    }
+
+    pub fn master(&self) -> &ModbusMaster<U> {
+        &self.master
+    }
+
+    pub fn master_mut(&mut self) -> &mut ModbusMaster<U> {
+        &mut self.master
+    }
+
+    /// The link's error, while it lasts.
+    pub fn link_error(&self) -> Option<DriveError> {
+        self.link_error
+    }
+
+    /// When `poll` must run next even if no byte arrives: an answer's deadline, or the next
+    /// keep-alive. `None`: only arriving bytes (or new work) move the link.
+    pub fn poll_at(&self) -> Option<u64> {
+        match self.job {
+            Some(_) => self.master.deadline(),
+            None if self.words == 0 && self.requests.is_empty() => Some(self.next_keepalive_us),
+            None => None,
+        }
+    }
+
+    /// Moves the link on at `now_us`: finishes the transaction under way if its answer is
+    /// complete or late, and starts the next one.
+    pub fn poll(&mut self, now_us: u64) {
+        if let Some(job) = self.job {
+            match self.master.poll(now_us) {
+                Some(outcome) => {
+                    self.job = None;
+                    self.finish(job, outcome);
+                }
+                None => return,
+            }
+        }
+        let Some(job) = self.next_job(now_us) else {
+            return;
+        };
+        let op = self.op(job);
+        if self.master.start(op).is_err() {
+            return;
+        }
+        self.job = Some(job);
+        // Sends the request. One that is answered at once is finished here; the next one
+        // waits for the next poll, so a call never runs more than two transactions.
+        if let Some(outcome) = self.master.poll(now_us) {
+            self.job = None;
+            self.finish(job, outcome);
+        }
+    }
+
+    fn next_job(&mut self, now_us: u64) -> Option<Job> {
+        if let Some(op) = self.requests.pop_front() {
+            return Some(Job::Request(op));
+        }
+        let slots = self.words.saturating_sub(1);
+        for slot in 0..slots {
+            if self.drive_targets[slot] != Some(self.targets[slot]) {
+                return Some(Job::Map(true, slot));
+            }
+            if self.drive_sources[slot] != Some(self.sources[slot]) {
+                return Some(Job::Map(false, slot));
+            }
+        }
+        if self.words > 0 {
+            return Some(Job::Cycle { words: self.words });
+        }
+        if now_us >= self.next_keepalive_us {
+            self.next_keepalive_us = now_us + KEEPALIVE_US;
+            return Some(Job::KeepAlive);
+        }
+        None
+    }
+
+    fn op(&self, job: Job) -> Op {
+        match job {
+            Job::Request(op) => op,
+            Job::Map(true, slot) => Op::Write(PZD_OUT_MAP + 1 + slot as u16, self.targets[slot]),
+            Job::Map(false, slot) => Op::Write(PZD_IN_MAP + 1 + slot as u16, self.sources[slot]),
+            Job::Cycle { words } => Op::Exchange {
+                words: words as u8,
+                out: self.out,
+            },
+            Job::KeepAlive => Op::Read(STATUS_WORD_REGISTER),
+        }
+    }
+
+    fn finish(&mut self, job: Job, outcome: Outcome) {
+        let result = match outcome {
+            Outcome::Failed(e) => Err(e),
+            other => Ok(other),
+        };
+        match result {
+            Err(e) if e.is_link_fault() => {
+                self.link_error = Some(e);
+                self.drive_targets = [None; MAX_PZD_WORDS - 1];
+                self.drive_sources = [None; MAX_PZD_WORDS - 1];
+            }
+            // The drive answered: the link works, whatever it said.
+            _ => self.link_error = None,
+        }
+        match job {
+            Job::Request(op) => {
+                self.figures.requests += 1;
+                if self.answers.is_full() {
+                    let _ = self.answers.remove(0);
+                }
+                let _ = self.answers.push((op, result));
+            }
+            Job::Map(out, slot) => {
+                self.figures.mapping_writes += 1;
+                let (held, wanted) = if out {
+                    (&mut self.drive_targets, self.targets[slot])
+                } else {
+                    (&mut self.drive_sources, self.sources[slot])
+                };
+                // A refused code is not written again: the cycle then reports the drive's error.
+                held[slot] = match result {
+                    Err(e) if e.is_link_fault() => None,
+                    _ => Some(wanted),
+                };
+            }
+            Job::Cycle { words } => {
+                self.figures.cycles += 1;
+                match result {
+                    Ok(Outcome::Values(values)) => {
+                        self.inp = values;
+                        self.in_words = words;
+                    }
+                    // The drive refused the cycle (a mapped register it does not have): the
+                    // master sees the drive's error value in PZD1.
+                    Err(e) if !e.is_link_fault() => self.link_error = Some(e),
+                    _ => {}
+                }
+            }
+            Job::KeepAlive => {}
+        }
+    }
+
+    /// A parameter request: its answer if there is one, otherwise queued and deferred.
+    fn request(&mut self, op: Op) -> Result<Outcome, DriveError> {
+        if let Some((_, result)) = self.answers.iter().find(|(o, _)| *o == op) {
+            return *result;
+        }
+        self.deferred = true;
+        let under_way = self.job == Some(Job::Request(op)) || self.requests.iter().any(|o| *o == op);
+        if !under_way && self.requests.push_back(op).is_err() {
+            // More distinct requests than a parameter channel makes: refuse, do not wait.
+            self.deferred = false;
+            return Err(DriveError::DriveFault);
+        }
+        // Not seen by the caller: it repeats the call once `take_deferred` said so.
+        Err(DriveError::NoAnswer)
+    }
+}
+
+fn value(result: Result<Outcome, DriveError>) -> Result<u16, DriveError> {
+    match result? {
+        Outcome::Value(v) => Ok(v),
+        _ => Err(DriveError::BusNoise),
+    }
+}
+
+impl<U: Read<u8> + Write<u8>> Drive for LinkedDrive<U> {
+    fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
+        value(self.request(Op::Read(code.0)))
+    }
+
+    fn write(&mut self, code: FunctionCode, value: u16, _persist: bool) -> Result<(), DriveError> {
+        // Only parameter channels write through here, and they persist; the PZD cycle's
+        // run-time writes go through the out block.
+        self.request(Op::Write(code.0, value)).map(|_| ())
+    }
+
+    fn write_control(&mut self, control_word: u16) -> Result<(), DriveError> {
+        self.request(Op::Write(CONTROL_WORD_REGISTER, control_word))
+            .map(|_| ())
+    }
+
+    fn read_status(&mut self) -> Result<u16, DriveError> {
+        value(self.request(Op::Read(STATUS_WORD_REGISTER)))
+    }
+
+    fn exchange_pzd(
+        &mut self,
+        out: &[u16],
+        targets: &[Option<FunctionCode>],
+        inp: &mut [u16],
+        sources: &[Option<FunctionCode>],
+    ) -> Result<(), DriveError> {
+        let words = out.len().min(MAX_PZD_WORDS);
+        self.words = words;
+        self.out[..words].copy_from_slice(&out[..words]);
+        let code = |c: &Option<FunctionCode>| c.map_or(0, |c| c.0);
+        for (held, wanted) in self.targets.iter_mut().zip(targets) {
+            *held = code(wanted);
+        }
+        for (held, wanted) in self.sources.iter_mut().zip(sources) {
+            *held = code(wanted);
+        }
+        if self.in_words == words && self.link_error.is_none() {
+            let n = inp.len().min(words);
+            inp[..n].copy_from_slice(&self.inp[..n]);
+        }
+        self.link_error.map_or(Ok(()), Err)
+    }
+
+    fn take_deferred(&mut self) -> bool {
+        let deferred = core::mem::take(&mut self.deferred);
+        if !deferred {
+            self.answers.clear();
+        }
+        deferred
+    }
+}

@@ -7,10 +7,17 @@
 //! ```
 //! The hardware task only moves bytes and wakes the software task; every protocol decision is
 //! in the logic crates. Each message gets exactly one reply, so the queue holds one frame.
+//!
+//! The drive link (UART1 / USART2) is interrupt-driven too: its interrupt moves bytes between
+//! the UART and two queues ([`drive_uart`]); the drive application's Modbus master runs in the
+//! `link` task after each message, and never waits for the drive. Under hal-sim a Tick says
+//! how many drive bytes have arrived; the task waits for them first, so the drive link runs
+//! on simulated time and repeats run to run.
 #![no_std]
 #![no_main]
 
 mod board;
+mod drive_uart;
 
 use defmt::error;
 
@@ -22,9 +29,8 @@ use defmt_semihosting as _;
 /// Bytes the link queue holds: two maximal frames.
 const LINK_QUEUE_LEN: usize = 2 * dp_link::MAX_FRAME_LEN;
 
-/// The application behind the slave until the firmware has its drive link (issue 6): the
-/// loopback of `adapter::loopback_app`. `profidrive::ProfidriveApp` takes its place then.
-type DriveApp = dp_slave::testing::EchoApp;
+/// The drive application on the drive UART.
+type DriveApp = adapter::DriveApp<drive_uart::DriveUart>;
 
 /// The failure paths, proven by `cargo xtask qemu-test` on images built for it.
 fn selftest() {
@@ -49,7 +55,7 @@ unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
 }
 
 macro_rules! adapter_app {
-    ($link_irq:ident, $dispatcher:ident) => {
+    ($link_irq:ident, $drive_irq:ident, $dispatcher:ident) => {
         #[rtic::app(device = crate::board::pac, dispatchers = [$dispatcher])]
         mod app {
             use crate::board;
@@ -135,6 +141,12 @@ macro_rules! adapter_app {
                 }
             }
 
+            /// The drive UART: above the link, so bytes queued to send leave at once.
+            #[task(binds = $drive_irq, priority = 3)]
+            fn drive_irq(_: drive_irq::Context) {
+                board::drive_interrupt();
+            }
+
             /// Decodes frames, runs the adapter, sends the replies.
             #[task(priority = 1, local = [consumer, link_tx, adapter: Option<Adapter<crate::DriveApp>> = None, deframer: Deframer = Deframer::new()])]
             async fn link(cx: link::Context, mut woken: Receiver<'static, (), 1>) {
@@ -163,8 +175,20 @@ macro_rules! adapter_app {
 
             fn handle(slot: &mut Option<Adapter<crate::DriveApp>>, tx: &mut board::Uart, message: &ToAdapter) {
                 let start = FRAME_END.load(Ordering::Relaxed);
+                if let ToAdapter::Tick { drive_rx_bytes, .. } = *message {
+                    // The simulated drive's bytes were sent before this Tick; they may still
+                    // be on their way through QEMU. The wait is not in the cycle count: on a
+                    // board the bytes are there when the link's time says so.
+                    while (crate::drive_uart::received().wrapping_sub(drive_rx_bytes) as i32) < 0 {}
+                }
+                let start = if matches!(message, ToAdapter::Tick { .. }) {
+                    board::timestamp()
+                } else {
+                    start
+                };
                 if let ToAdapter::Boot { switch, nv, .. } = *message {
-                    let adapter = Adapter::boot(switch, nv, adapter::loopback_app());
+                    let app = adapter::drive_app(crate::drive_uart::DriveUart::new());
+                    let adapter = Adapter::boot(switch, nv, app);
                     let a = adapter.addressing();
                     info!("adapter: switch {=u8}, address {=u8} from {}", switch, a.address, a.source);
                     *slot = Some(adapter);
@@ -175,10 +199,11 @@ macro_rules! adapter_app {
                 };
                 let before = adapter.slave().state();
                 let (response, status) = adapter.on_message(message);
+                // The response is ready: the log line below is not part of the turnaround.
+                let cycles = board::cycles_since(start);
                 if adapter::link_state(before) != status.state {
                     info!("slave: {} -> {}", before, status.state);
                 }
-                let cycles = board::cycles_since(start);
                 let reply = FromAdapter::Reply {
                     seq: message.seq(),
                     response,
@@ -186,6 +211,9 @@ macro_rules! adapter_app {
                     status,
                 };
                 send(tx, &reply);
+                // The drive link's turn, after the response is on its way.
+                let status = adapter.after_message(message);
+                send(tx, &FromAdapter::Done { seq: message.seq(), status });
             }
 
             fn send(tx: &mut board::Uart, message: &FromAdapter) {
@@ -200,6 +228,6 @@ macro_rules! adapter_app {
 }
 
 #[cfg(feature = "lm3s6965")]
-adapter_app!(UART0, GPIOA);
+adapter_app!(UART0, UART1, GPIOA);
 #[cfg(feature = "stm32f103")]
-adapter_app!(USART1, EXTI0);
+adapter_app!(USART1, USART2, EXTI0);

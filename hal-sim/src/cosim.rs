@@ -14,6 +14,8 @@
 //! cycle count it reports, converted at the board's declared clock. Time is ticks of the
 //! transceiver's sample clock; the firmware sees it as microseconds in each message.
 
+use crate::drive_sim::DriveSim;
+use crate::drive_wire::DriveWire;
 use crate::firmware::{Firmware, Reply};
 use crate::master::MasterPhy;
 use dp_consts::Baud;
@@ -23,6 +25,11 @@ use dp_phy::delimiter::Status as TelegramStatus;
 use dp_phy::{BaudState, BitTiming, Tick, Transceiver};
 use profirust::dp::{DpMaster, Peripheral, PeripheralHandle, PeripheralOptions};
 use profirust::fdl::{FdlActiveStation, ParametersBuilder};
+use profidrive::codes::FunctionCode;
+use profidrive::drive::PZD1_LINK_ERROR;
+use profidrive::ppo::Ppo;
+use profidrive::prm::UserPrm;
+use profidrive::words::control;
 use std::io;
 
 /// The transceiver's sample clock.
@@ -53,12 +60,34 @@ impl MasterSetup {
             address: 2,
             slave_address,
             ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
-            config: vec![0xF3, 0xF1],
-            user_prm: vec![0x00],
+            config: Ppo::Ppo1.cfg().to_vec(),
+            user_prm: echo_user_prm().encode().to_vec(),
             watchdog_ms: 200,
         }
     }
 }
+
+/// The vendor profile's default parameters, with PZD2 in read from D0.01 (the set frequency)
+/// so that PZD2 out (to F0.29) comes back through the drive: [`Program::EchoThroughDrive`].
+pub fn echo_user_prm() -> UserPrm {
+    let mut prm = UserPrm::DEFAULT;
+    prm.rd_pzd[0] = FunctionCode(crate::drive_sim::SET_FREQUENCY_STATUS);
+    prm
+}
+
+/// What the master puts in the outputs each data exchange cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Program {
+    /// PPO1, control word "run", PZD2 a set frequency that steps every 16 cycles. The
+    /// inputs' PZD2 must always be one the master sent (read back from D0.01), and PZD1 never
+    /// the link error 0xC0xx: the whole chain through the drive, checked every cycle.
+    EchoThroughDrive,
+    /// The scenario writes `outputs` and reads `inputs` itself.
+    Manual,
+}
+
+/// The control word the echo program runs the drive with.
+pub const ECHO_CONTROL_WORD: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
 
 /// The profirust master: its FDL station and DP application, over its PHY.
 pub struct Master {
@@ -69,8 +98,12 @@ pub struct Master {
     pub setup: MasterSetup,
     /// Data exchange cycles completed.
     pub cycles: u64,
-    /// The outputs sent last, and whether the inputs answering them were checked.
+    pub program: Program,
+    /// The outputs sent last, and the inputs received last.
     pub outputs: Vec<u8>,
+    pub inputs: Vec<u8>,
+    /// The echo program: PZD2 values sent, inputs that carried one of them, inputs wrong.
+    sent: std::collections::BTreeSet<u16>,
     pub inputs_checked: u64,
     pub inputs_wrong: u64,
     /// A commissioning tool, not profirust: only the PHY is used, by [`CoSim::tool_request`].
@@ -134,6 +167,9 @@ impl Master {
             dp,
             handle,
             outputs: vec![0u8; io.outputs],
+            inputs: vec![0u8; io.inputs],
+            program: Program::EchoThroughDrive,
+            sent: Default::default(),
             setup,
             cycles: 0,
             inputs_checked: 0,
@@ -159,17 +195,22 @@ impl Master {
             let peripheral = self.dp.get_mut(handle);
             if peripheral.is_running() {
                 self.cycles += 1;
-                // The loopback application answers each output byte with its complement.
-                let want: Vec<u8> = self.outputs.iter().map(|b| !b).collect();
-                if peripheral.pi_i().len() == want.len() && self.cycles > 1 {
-                    self.inputs_checked += 1;
-                    if peripheral.pi_i() != want.as_slice() {
-                        self.inputs_wrong += 1;
+                self.inputs.copy_from_slice(peripheral.pi_i());
+                if self.program == Program::EchoThroughDrive && self.outputs.len() == 12 {
+                    let word = |b: &[u8], at: usize| u16::from_be_bytes([b[at], b[at + 1]]);
+                    let (status, pzd2) = (word(&self.inputs, 8), word(&self.inputs, 10));
+                    if self.cycles > 1 {
+                        if status & 0xFF00 == PZD1_LINK_ERROR || !(pzd2 == 0 || self.sent.contains(&pzd2)) {
+                            self.inputs_wrong += 1;
+                        } else if pzd2 != 0 {
+                            self.inputs_checked += 1;
+                        }
                     }
-                }
-                let c = self.cycles as u8;
-                for (i, b) in self.outputs.iter_mut().enumerate() {
-                    *b = c.wrapping_mul(37).wrapping_add(i as u8);
+                    let set_frequency = ((self.cycles / 16) % 49 + 1) as u16 * 100;
+                    self.sent.insert(set_frequency);
+                    self.outputs.fill(0);
+                    self.outputs[8..10].copy_from_slice(&ECHO_CONTROL_WORD.to_be_bytes());
+                    self.outputs[10..12].copy_from_slice(&set_frequency.to_be_bytes());
                 }
                 peripheral.pi_q_mut().copy_from_slice(&self.outputs);
             }
@@ -215,6 +256,11 @@ pub struct CoSim<F: Firmware> {
     pub nv: Option<NvRecord>,
     pub status: Status,
     pub figures: Figures,
+    /// The drive link and the drive behind the adapter.
+    pub drive: DriveWire,
+    /// Data exchange as the adapter saw it (recorded while `log_dx` is set).
+    pub log_dx: bool,
+    pub dx: DxLog,
     /// What happened, in order, for the run's report: state and LED changes, locks, storage.
     pub events: Vec<String>,
     seq: u32,
@@ -229,6 +275,20 @@ fn ticks_from_us(us: u64) -> Tick {
 
 fn us_from_ticks(ticks: Tick) -> u64 {
     ticks / (CLOCK_HZ as u64 / 1_000_000)
+}
+
+/// The firmware's cycles at the production board's clock, in whole microseconds.
+fn cycles_us(cycles: u32) -> u64 {
+    u64::from(cycles) / (DECLARED_CLOCK_HZ as u64 / 1_000_000)
+}
+
+/// Data exchange as the adapter saw it: each change of the outputs (at the end of the
+/// request that brought them) and of the inputs (at the end of the response that carried
+/// them).
+#[derive(Clone, Debug, Default)]
+pub struct DxLog {
+    pub outputs: Vec<(u64, Vec<u8>)>,
+    pub inputs: Vec<(u64, Vec<u8>)>,
 }
 
 impl<F: Firmware> CoSim<F> {
@@ -252,11 +312,16 @@ impl<F: Firmware> CoSim<F> {
                 leds: Leds::default(),
                 nv_write: None,
                 poll_at_us: None,
+                drive_tx_bytes: 0,
+                drive_link_error: 0,
                 outputs_applied: 0,
                 fail_safes: 0,
                 malformed_telegrams: 0,
             },
             figures: Figures::default(),
+            drive: DriveWire::default(),
+            log_dx: false,
+            dx: DxLog::default(),
             events: Vec::new(),
             seq: 0,
             pending: None,
@@ -279,8 +344,7 @@ impl<F: Firmware> CoSim<F> {
             self.switch, self.nv
         ));
         let reply = self.firmware.exchange(&message)?;
-        self.apply(&reply);
-        Ok(())
+        self.apply(&reply, self.now_us())
     }
 
     /// A power cycle of the board: the firmware restarts from the switch and the storage.
@@ -290,6 +354,7 @@ impl<F: Firmware> CoSim<F> {
         self.adapter = Transceiver::reset_at(self.adapter.config(), self.now);
         self.pending = None;
         self.last_baud_state = BaudState::Searching;
+        self.drive.adapter_restarted();
         self.boot()
     }
 
@@ -345,9 +410,48 @@ impl<F: Firmware> CoSim<F> {
         us_from_ticks(self.now)
     }
 
-    fn apply(&mut self, reply: &Reply) {
+    /// The drive as it is now.
+    pub fn drive_now(&mut self) -> &mut DriveSim {
+        let now = self.now_us();
+        self.drive.advance_to(now);
+        &mut self.drive.drive
+    }
+
+    /// Takes a reply handed over at `t_us`: its status, and the bytes it sent to the drive.
+    fn apply(&mut self, reply: &Reply, t_us: u64) -> io::Result<()> {
+        self.apply_status(reply);
+        let sent = reply.status.drive_tx_bytes.wrapping_sub(self.drive.received);
+        if sent > 0 {
+            let bytes = self.firmware.drive_receive(sent as usize)?;
+            self.drive.from_firmware(t_us, &bytes);
+        }
+        Ok(())
+    }
+
+    /// Hands the drive's answers that are complete to the firmware, each with its Tick.
+    fn deliver_drive_answers(&mut self) -> io::Result<()> {
+        while let Some((at, bytes)) = self.drive.take_delivery(self.now_us()) {
+            self.firmware.drive_send(&bytes)?;
+            let message = ToAdapter::Tick {
+                seq: self.next_seq(),
+                now_us: at,
+                drive_rx_bytes: self.drive.delivered,
+            };
+            let reply = self.firmware.exchange(&message)?;
+            self.apply(&reply, at + cycles_us(reply.cycles))?;
+        }
+        Ok(())
+    }
+
+    fn apply_status(&mut self, reply: &Reply) {
         let old = self.status;
         let new = reply.status;
+        if new.drive_link_error != old.drive_link_error {
+            self.event(match new.drive_link_error {
+                0 => "drive link: working".into(),
+                e => format!("drive link: error 0x{e:02X}"),
+            });
+        }
         if new.state != old.state {
             self.event(format!("slave: {:?} -> {:?}", old.state, new.state));
         }
@@ -412,14 +516,17 @@ impl<F: Firmware> CoSim<F> {
             }
             self.next_master_poll = self.now + self.master_poll_ticks();
         }
+        self.deliver_drive_answers()?;
         if let Some(at) = self.status.poll_at_us {
             if self.now_us() >= at {
+                let now_us = self.now_us();
                 let message = ToAdapter::Tick {
                     seq: self.next_seq(),
-                    now_us: self.now_us(),
+                    now_us,
+                    drive_rx_bytes: self.drive.delivered,
                 };
                 let reply = self.firmware.exchange(&message)?;
-                self.apply(&reply);
+                self.apply(&reply, now_us + cycles_us(reply.cycles))?;
             }
         }
         let master_drive = self.master.as_ref().and_then(|m| m.phy.tx.drive());
@@ -427,7 +534,10 @@ impl<F: Firmware> CoSim<F> {
         let line = self.bus.resolve(self.now, [master_drive, adapter_drive]);
         let mut limit = end - self.now;
         limit = limit.min(self.next_master_poll.saturating_sub(self.now).max(1));
-        if let Some(at) = self.status.poll_at_us {
+        for at in [self.status.poll_at_us, self.drive.next_delivery_us()]
+            .into_iter()
+            .flatten()
+        {
             limit = limit.min(ticks_from_us(at).saturating_sub(self.now).max(1));
         }
         let quiet = match &self.master {
@@ -475,6 +585,41 @@ impl<F: Firmware> CoSim<F> {
             self.telegram()?;
         }
         Ok(())
+    }
+
+    fn log_data_exchange(
+        &mut self,
+        end_us: u64,
+        turnaround_us: u64,
+        request: &[u8],
+        response: &[u8],
+    ) {
+        let payload = |bytes: &[u8]| match fdl::Repr::parse_bytes(bytes) {
+            Ok((fdl::Repr::Data(d), _)) if d.dsap.is_none() && d.ssap.is_none() => {
+                Some(d.payload.to_vec())
+            }
+            _ => None,
+        };
+        let Some(outputs) = payload(request).filter(|p| !p.is_empty()) else {
+            return;
+        };
+        if self.dx.outputs.last().map(|(_, o)| o) != Some(&outputs) {
+            self.dx.outputs.push((end_us, outputs));
+        }
+        let Some(inputs) = payload(response) else {
+            return;
+        };
+        let bps = self
+            .adapter
+            .baud_state()
+            .baud()
+            .map_or(1, |b| b.bits_per_second() as u64);
+        let bits_us = |bits: u64| (bits * 1_000_000).div_ceil(bps);
+        let start = end_us + turnaround_us.max(bits_us(u64::from(self.status.min_tsdr_bits)));
+        let done = start + bits_us(11 * response.len() as u64);
+        if self.dx.inputs.last().map(|(_, i)| i) != Some(&inputs) {
+            self.dx.inputs.push((done, inputs));
+        }
     }
 
     fn baud_changed(&mut self) {
@@ -543,7 +688,12 @@ impl<F: Firmware> CoSim<F> {
         };
         self.figures.forwarded += 1;
         let reply = self.firmware.exchange(&message)?;
-        self.apply(&reply);
+        let end_us = us_from_ticks(end);
+        self.apply(&reply, end_us + cycles_us(reply.cycles))?;
+        if self.log_dx {
+            let turnaround_us = cycles_us(reply.cycles) + 2 * LINK_LATENCY_NS / 1000;
+            self.log_data_exchange(end_us, turnaround_us, &bytes, &reply.response);
+        }
         // The turnaround that matters is a request's: boot and ticks are not on the bus.
         self.figures.worst_cycles = self.figures.worst_cycles.max(reply.cycles);
         if !reply.response.is_empty() {

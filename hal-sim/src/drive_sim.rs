@@ -160,6 +160,11 @@ impl DriveSim {
         self.reverse
     }
 
+    /// The drive's own time (what `advance` has let pass).
+    pub fn now_us(&self) -> u64 {
+        self.now_us
+    }
+
     pub fn control_word(&self) -> u16 {
         self.control_word
     }

@@ -4,6 +4,11 @@
 //! Both speak the link protocol of `dp-link`: one [`ToAdapter`] message, one reply. The QEMU
 //! side is a localhost socket that QEMU's UART0 connects to (`-serial tcp:..`); QEMU's stdout
 //! carries only the defmt stream (semihosting), collected for the caller to decode.
+//!
+//! The drive UART is a second byte stream (QEMU's UART1 on a second socket). The caller reads
+//! exactly the bytes a reply's status says were sent, and writes the drive's answers before
+//! the Tick that tells the firmware how many have arrived: the lockstep that keeps the drive
+//! link on simulated time.
 
 use dp_link::{Deframer, Fed, FromAdapter, Status, ToAdapter, MAX_FRAME_LEN};
 use std::io::{self, Read, Write};
@@ -23,47 +28,131 @@ pub struct Reply {
     pub status: Status,
 }
 
+/// The status of a message's Done, with the storage write its Reply may have carried.
+fn merged(reply: Status, done: Status) -> Status {
+    Status {
+        nv_write: reply.nv_write.or(done.nv_write),
+        ..done
+    }
+}
+
+/// What the firmware sends.
+enum Message {
+    Ready,
+    Reply(Reply),
+    Done(u32, Status),
+}
+
 /// Something that answers link messages.
 pub trait Firmware {
     fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply>;
 
     /// Power cycle: the firmware starts from reset (it then expects a Boot).
     fn restart(&mut self) -> io::Result<()>;
+
+    /// Bytes from the drive into the firmware's drive UART.
+    fn drive_send(&mut self, bytes: &[u8]) -> io::Result<()>;
+
+    /// Exactly `n` bytes the firmware wrote to its drive UART, in order.
+    fn drive_receive(&mut self, n: usize) -> io::Result<Vec<u8>>;
+}
+
+/// The in-process drive UART: bytes in both directions, and a count of those sent.
+#[derive(Debug, Default)]
+pub struct MemoryUart {
+    rx: std::collections::VecDeque<u8>,
+    tx: std::collections::VecDeque<u8>,
+    sent: u32,
+}
+
+impl embedded_hal_nb::serial::ErrorType for MemoryUart {
+    type Error = embedded_hal_nb::serial::ErrorKind;
+}
+
+impl embedded_hal_nb::serial::Read<u8> for MemoryUart {
+    fn read(&mut self) -> nb::Result<u8, Self::Error> {
+        self.rx.pop_front().ok_or(nb::Error::WouldBlock)
+    }
+}
+
+impl embedded_hal_nb::serial::Write<u8> for MemoryUart {
+    fn write(&mut self, word: u8) -> nb::Result<(), Self::Error> {
+        self.tx.push_back(word);
+        self.sent = self.sent.wrapping_add(1);
+        Ok(())
+    }
+
+    fn flush(&mut self) -> nb::Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+impl adapter::CountsSent for MemoryUart {
+    fn bytes_sent(&self) -> u32 {
+        self.sent
+    }
 }
 
 /// The adapter crate in-process: the firmware's logic without the RTIC shell (cycles are 0).
+#[derive(Default)]
 pub struct InProcess {
-    adapter: Option<adapter::Adapter<dp_slave::testing::EchoApp>>,
-    app: fn() -> dp_slave::testing::EchoApp,
+    adapter: Option<adapter::Adapter<adapter::DriveApp<MemoryUart>>>,
 }
 
 impl InProcess {
-    pub fn new(app: fn() -> dp_slave::testing::EchoApp) -> InProcess {
-        InProcess { adapter: None, app }
+    pub fn new() -> InProcess {
+        InProcess::default()
+    }
+
+    fn uart(&mut self) -> io::Result<&mut MemoryUart> {
+        let adapter = self
+            .adapter
+            .as_mut()
+            .ok_or_else(|| io::Error::other("drive bytes before Boot"))?;
+        Ok(adapter.app_mut().drive_mut().master_mut().uart_mut())
     }
 }
 
 impl Firmware for InProcess {
     fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply> {
         if let ToAdapter::Boot { switch, nv, .. } = *message {
-            self.adapter = Some(adapter::Adapter::boot(switch, nv, (self.app)()));
+            let app = adapter::drive_app(MemoryUart::default());
+            self.adapter = Some(adapter::Adapter::boot(switch, nv, app));
         }
         let adapter = self
             .adapter
             .as_mut()
             .ok_or_else(|| io::Error::other("message before Boot"))?;
         let (response, status) = adapter.on_message(message);
+        let response = response.to_vec();
+        let done = adapter.after_message(message);
         Ok(Reply {
             seq: message.seq(),
-            response: response.to_vec(),
+            response,
             cycles: 0,
-            status,
+            status: merged(status, done),
         })
     }
 
     fn restart(&mut self) -> io::Result<()> {
         self.adapter = None;
         Ok(())
+    }
+
+    fn drive_send(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.uart()?.rx.extend(bytes);
+        Ok(())
+    }
+
+    fn drive_receive(&mut self, n: usize) -> io::Result<Vec<u8>> {
+        let uart = self.uart()?;
+        if uart.tx.len() < n {
+            return Err(io::Error::other(format!(
+                "{n} drive bytes announced, {} written",
+                uart.tx.len()
+            )));
+        }
+        Ok(uart.tx.drain(..n).collect())
     }
 }
 
@@ -78,6 +167,7 @@ pub struct Qemu {
     earlier_runs: Vec<Vec<u8>>,
     child: Child,
     link: TcpStream,
+    drive: TcpStream,
     deframer: Deframer,
     pending: Vec<u8>,
     defmt: Arc<Mutex<Vec<u8>>>,
@@ -90,6 +180,8 @@ impl Qemu {
     pub fn start(qemu: &Path, elf: &Path) -> io::Result<Qemu> {
         let listener = TcpListener::bind("127.0.0.1:0")?;
         let port = listener.local_addr()?.port();
+        let drive_listener = TcpListener::bind("127.0.0.1:0")?;
+        let drive_port = drive_listener.local_addr()?.port();
         let mut child = Command::new(qemu)
             .args([
                 "-machine",
@@ -105,6 +197,11 @@ impl Qemu {
                 &format!("socket,id=link,host=127.0.0.1,port={port},nodelay=on"),
                 "-serial",
                 "chardev:link",
+                // UART1: the drive link.
+                "-chardev",
+                &format!("socket,id=drive,host=127.0.0.1,port={drive_port},nodelay=on"),
+                "-serial",
+                "chardev:drive",
                 "-semihosting-config",
                 "enable=on,target=native",
                 "-icount",
@@ -117,31 +214,13 @@ impl Qemu {
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()?;
-        listener.set_nonblocking(true)?;
-        let start = std::time::Instant::now();
-        let link = loop {
-            match listener.accept() {
-                Ok((stream, _)) => break stream,
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                    if let Some(status) = child.try_wait()? {
-                        let mut err = String::new();
-                        if let Some(mut e) = child.stderr.take() {
-                            let _ = e.read_to_string(&mut err);
-                        }
-                        return Err(io::Error::other(format!("QEMU exited ({status}): {err}")));
-                    }
-                    if start.elapsed() > REPLY_TIMEOUT {
-                        let _ = child.kill();
-                        return Err(io::Error::other("QEMU never connected to the link socket"));
-                    }
-                    std::thread::sleep(Duration::from_millis(5));
-                }
-                Err(e) => return Err(e),
-            }
-        };
-        link.set_nonblocking(false)?;
-        link.set_nodelay(true)?;
-        link.set_read_timeout(Some(REPLY_TIMEOUT))?;
+        let link = accept(&listener, &mut child, "link")?;
+        let drive = accept(&drive_listener, &mut child, "drive")?;
+        for stream in [&link, &drive] {
+            stream.set_nonblocking(false)?;
+            stream.set_nodelay(true)?;
+            stream.set_read_timeout(Some(REPLY_TIMEOUT))?;
+        }
         let defmt = Arc::new(Mutex::new(Vec::new()));
         let mut stdout = child.stdout.take().expect("piped stdout");
         let sink = defmt.clone();
@@ -160,6 +239,7 @@ impl Qemu {
             earlier_runs: Vec::new(),
             child,
             link,
+            drive,
             deframer: Deframer::new(),
             pending: Vec::new(),
             defmt,
@@ -213,20 +293,32 @@ impl Qemu {
     /// Waits for the firmware's Ready: its link is up.
     fn wait_ready(&mut self) -> io::Result<()> {
         match self.read_message()? {
-            None => Ok(()),
-            Some(reply) => Err(io::Error::other(format!("a reply before Ready: {reply:?}"))),
+            Message::Ready => Ok(()),
+            _ => Err(io::Error::other("a reply before Ready")),
         }
     }
 
-    fn read_reply(&mut self) -> io::Result<Reply> {
+    /// A message's Reply and Done, as one reply.
+    fn read_reply(&mut self, seq: u32) -> io::Result<Reply> {
+        let mut reply = match self.read_message()? {
+            Message::Reply(reply) => reply,
+            Message::Ready => return Err(io::Error::other("Ready again: the firmware restarted")),
+            Message::Done(..) => return Err(io::Error::other("Done before the Reply")),
+        };
         match self.read_message()? {
-            Some(reply) => Ok(reply),
-            None => Err(io::Error::other("Ready again: the firmware restarted")),
+            Message::Done(done_seq, status) if done_seq == seq => {
+                reply.status = merged(reply.status, status);
+                Ok(reply)
+            }
+            Message::Done(done_seq, _) => Err(io::Error::other(format!(
+                "Done {done_seq} after the Reply to message {seq}"
+            ))),
+            _ => Err(io::Error::other("a Reply without its Done")),
         }
     }
 
-    /// The next message: `None` for Ready, or a reply.
-    fn read_message(&mut self) -> io::Result<Option<Reply>> {
+    /// The next message.
+    fn read_message(&mut self) -> io::Result<Message> {
         let mut buf = [0u8; MAX_FRAME_LEN];
         loop {
             let mut rest: &[u8] = &self.pending;
@@ -245,7 +337,12 @@ impl Qemu {
                     }
                     Fed::Message(FromAdapter::Ready, r) => {
                         consumed += before - r.len();
-                        found = Some(None);
+                        found = Some(Message::Ready);
+                        break;
+                    }
+                    Fed::Message(FromAdapter::Done { seq, status }, r) => {
+                        consumed += before - r.len();
+                        found = Some(Message::Done(seq, status));
                         break;
                     }
                     Fed::Message(
@@ -258,7 +355,7 @@ impl Qemu {
                         r,
                     ) => {
                         consumed += before - r.len();
-                        found = Some(Some(Reply {
+                        found = Some(Message::Reply(Reply {
                             seq,
                             response: response.to_vec(),
                             cycles,
@@ -299,7 +396,7 @@ impl Firmware for Qemu {
             .map_err(|_| io::Error::other("message does not fit a frame"))?;
         self.link.write_all(bytes)?;
         let reply = self
-            .read_reply()
+            .read_reply(message.seq())
             .map_err(|e| io::Error::new(e.kind(), format!("message {:?}: {e}", message)))?;
         if reply.seq != message.seq() {
             return Err(io::Error::other(format!(
@@ -313,6 +410,46 @@ impl Firmware for Qemu {
 
     fn restart(&mut self) -> io::Result<()> {
         self.restart_process()
+    }
+
+    fn drive_send(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.drive.write_all(bytes)
+    }
+
+    fn drive_receive(&mut self, n: usize) -> io::Result<Vec<u8>> {
+        let mut bytes = vec![0u8; n];
+        self.drive.read_exact(&mut bytes).map_err(|e| {
+            io::Error::new(e.kind(), format!("{n} bytes from the drive UART: {e}"))
+        })?;
+        Ok(bytes)
+    }
+}
+
+/// The connection QEMU makes for one chardev, or why it never came.
+fn accept(listener: &TcpListener, child: &mut Child, name: &str) -> io::Result<TcpStream> {
+    listener.set_nonblocking(true)?;
+    let start = std::time::Instant::now();
+    loop {
+        match listener.accept() {
+            Ok((stream, _)) => return Ok(stream),
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                if let Some(status) = child.try_wait()? {
+                    let mut err = String::new();
+                    if let Some(mut e) = child.stderr.take() {
+                        let _ = e.read_to_string(&mut err);
+                    }
+                    return Err(io::Error::other(format!("QEMU exited ({status}): {err}")));
+                }
+                if start.elapsed() > REPLY_TIMEOUT {
+                    let _ = child.kill();
+                    return Err(io::Error::other(format!(
+                        "QEMU never connected to the {name} socket"
+                    )));
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            Err(e) => return Err(e),
+        }
     }
 }
 

@@ -6,11 +6,13 @@
 //! - [`firmware`]: the firmware behind the transceiver, the real image in QEMU
 //!   ([`firmware::Qemu`]) or its logic in-process ([`firmware::InProcess`]).
 //! - [`scenario`]: the scenarios of `cargo xtask qemu-test`, each with its checks.
-//! - [`drive_sim`]: the drive behind the adapter (its Modbus side comes with the drive link).
+//! - [`drive_sim`]: the drive behind the adapter, and [`drive_wire`]: the Modbus RTU line to
+//!   it on simulated time.
 #![deny(unsafe_code)]
 
 pub mod cosim;
 pub mod drive_sim;
+pub mod drive_wire;
 pub mod firmware;
 pub mod master;
 pub mod scenario;

@@ -9,7 +9,7 @@ use hal_sim::scenario;
 fn every_scenario_passes_in_process() {
     let mut failed = Vec::new();
     for s in scenario::all() {
-        let (outcome, _) = scenario::run(&s, InProcess::new(adapter::loopback_app)).unwrap();
+        let (outcome, _) = scenario::run(&s, InProcess::new()).unwrap();
         if !outcome.passed() {
             failed.push(format!(
                 "{}: {:#?}\n{:#?}\n{:?}",

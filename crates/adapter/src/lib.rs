@@ -16,7 +16,10 @@
 
 use dp_link::{Led, Leds, NvRecord, SlaveState, Status, ToAdapter};
 use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
+use drive_link::{LinkedDrive, ModbusMaster};
+use embedded_hal_nb::serial::{Read, Write};
 use profidrive::ppo::Ppo;
+use profidrive::ProfidriveApp;
 
 /// What the storage holds after a factory reset: the commissioning address, changeable.
 pub const FACTORY_DEFAULTS: NvRecord = NvRecord {
@@ -34,13 +37,56 @@ pub const PPO_CONFIGURATIONS: &[&[u8]] = &[
     Ppo::Ppo6.cfg(),
 ];
 
-/// The application the firmware runs until the drive link exists (issue 6): dp-slave's loopback
-/// application (inputs answer outputs with their complement), accepting the six PPOs.
-pub fn loopback_app() -> dp_slave::testing::EchoApp {
-    dp_slave::testing::EchoApp {
-        accepted_cfgs: PPO_CONFIGURATIONS,
-        default_cfg: PPO_CONFIGURATIONS[0],
-        ..dp_slave::testing::EchoApp::default()
+/// The drive application on its link: what the firmware runs, on the drive UART `uart`.
+pub type DriveApp<U> = ProfidriveApp<LinkedDrive<U>>;
+
+pub fn drive_app<U: Read<u8> + Write<u8>>(uart: U) -> DriveApp<U> {
+    ProfidriveApp::new(LinkedDrive::new(ModbusMaster::new(
+        uart,
+        drive_link::Config::default(),
+    )))
+}
+
+/// What runs beside the DP slave after every message: the drive application's own cycle.
+pub trait Background {
+    /// Runs at `now_us`; returns when it must run again at the latest, if ever.
+    fn run(&mut self, _now_us: u64) -> Option<u64> {
+        None
+    }
+    /// Bytes written to the drive UART since power-up.
+    fn drive_tx_bytes(&self) -> u32 {
+        0
+    }
+    /// The drive link's error value, 0 while it works.
+    fn drive_link_error(&self) -> u8 {
+        0
+    }
+}
+
+/// A UART that counts what it sent (the simulated drive link's lockstep needs the count).
+pub trait CountsSent {
+    fn bytes_sent(&self) -> u32;
+}
+
+impl Background for dp_slave::testing::EchoApp {}
+
+impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
+    fn run(&mut self, now_us: u64) -> Option<u64> {
+        let now = Instant::from_micros(now_us);
+        // The images to the link, the link on, and what it just answered into the images,
+        // so that the next data exchange carries it.
+        self.service(now);
+        self.drive_mut().poll(now_us);
+        self.service(now);
+        self.drive().poll_at()
+    }
+
+    fn drive_tx_bytes(&self) -> u32 {
+        self.drive().master().uart().bytes_sent()
+    }
+
+    fn drive_link_error(&self) -> u8 {
+        self.drive().link_error().map_or(0, |e| e.code())
     }
 }
 
@@ -113,8 +159,14 @@ pub fn link_state(state: State) -> SlaveState {
 }
 
 /// The application as the slave sees it, with the adapter's bookkeeping around it.
+///
+/// User parameters are taken on trust while the slave answers Set_Prm, and checked after the
+/// response has gone (`Adapter::after_message`): the parameter check is the slowest part of
+/// a Set_Prm, and at 12 Mbit/s the response must start within 800 bit times (66 µs). No
+/// other telegram is handled in between, so the master sees the same as with the check first.
 struct Recording<A> {
     inner: A,
+    user_prm_to_check: Option<heapless::Vec<u8, { dp_consts::MAX_DATA_UNIT_LEN }>>,
     nv_write: Option<NvRecord>,
     outputs_applied: u32,
     fail_safes: u16,
@@ -122,7 +174,13 @@ struct Recording<A> {
 
 impl<A: Application> Application for Recording<A> {
     fn accept_user_prm(&mut self, user_prm: &[u8]) -> bool {
-        self.inner.accept_user_prm(user_prm)
+        match heapless::Vec::from_slice(user_prm) {
+            Ok(copy) => {
+                self.user_prm_to_check = Some(copy);
+                true
+            }
+            Err(()) => false,
+        }
     }
     fn accept_cfg(&mut self, cfg: &[u8]) -> Option<IoSizes> {
         self.inner.accept_cfg(cfg)
@@ -167,9 +225,11 @@ pub struct Adapter<A> {
     exchanged: bool,
     malformed_telegrams: u16,
     response: [u8; dp_consts::MAX_TELEGRAM_LEN],
+    /// When the background must run next.
+    background_at: Option<u64>,
 }
 
-impl<A: Application> Adapter<A> {
+impl<A: Application + Background> Adapter<A> {
     /// Power-up with the switch reading and the storage contents.
     pub fn boot(switch: u8, nv: Option<NvRecord>, app: A) -> Adapter<A> {
         let addressing = addressing(switch, nv);
@@ -182,6 +242,7 @@ impl<A: Application> Adapter<A> {
             },
             Recording {
                 inner: app,
+                user_prm_to_check: None,
                 nv_write: addressing.nv_write,
                 outputs_applied: 0,
                 fail_safes: 0,
@@ -193,6 +254,7 @@ impl<A: Application> Adapter<A> {
             exchanged: false,
             malformed_telegrams: 0,
             response: [0; dp_consts::MAX_TELEGRAM_LEN],
+            background_at: None,
         }
     }
 
@@ -208,8 +270,13 @@ impl<A: Application> Adapter<A> {
         &self.slave.app().inner
     }
 
+    pub fn app_mut(&mut self) -> &mut A {
+        &mut self.slave.app_mut().inner
+    }
+
     /// Handles a Telegram or Tick (a Boot is the caller's: it builds a new adapter); returns
-    /// the response telegram (empty for none) and the status after it.
+    /// the response telegram (empty for none) and the status after it. The caller sends the
+    /// response, then calls [`Adapter::after_message`].
     pub fn on_message(&mut self, message: &ToAdapter) -> (&[u8], Status) {
         let len = match *message {
             ToAdapter::Telegram { now_us, bytes, .. } => match fdl::Repr::parse_bytes(bytes) {
@@ -231,11 +298,29 @@ impl<A: Application> Adapter<A> {
             }
             ToAdapter::Boot { .. } => 0,
         };
+
         if self.slave.state() == State::DataExch {
             self.exchanged = true;
         }
         let status = self.status();
         (&self.response[..len], status)
+    }
+
+    /// The work after a message's reply: the drive application's cycle at `now_us`.
+    /// Returns the status after it.
+    pub fn after_message(&mut self, message: &ToAdapter) -> Status {
+        if let ToAdapter::Telegram { now_us, .. } = *message {
+            let app = self.slave.app_mut();
+            if let Some(user_prm) = app.user_prm_to_check.take() {
+                if !app.inner.accept_user_prm(&user_prm) {
+                    self.slave.refuse_parameters(Instant::from_micros(now_us));
+                }
+            }
+        }
+        if let ToAdapter::Telegram { now_us, .. } | ToAdapter::Tick { now_us, .. } = *message {
+            self.background_at = self.slave.app_mut().inner.run(now_us);
+        }
+        self.status()
     }
 
     /// The status now; takes a pending storage write.
@@ -248,7 +333,12 @@ impl<A: Application> Adapter<A> {
             min_tsdr_bits: self.slave.min_tsdr_bits(),
             leds: self.leds(),
             nv_write,
-            poll_at_us: self.slave.poll_at().map(Instant::micros),
+            poll_at_us: match (self.slave.poll_at().map(Instant::micros), self.background_at) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            },
+            drive_tx_bytes: app.inner.drive_tx_bytes(),
+            drive_link_error: app.inner.drive_link_error(),
             outputs_applied: app.outputs_applied,
             fail_safes: app.fail_safes,
             malformed_telegrams: self.malformed_telegrams,
@@ -365,6 +455,47 @@ mod tests {
         let (_, status) = adapter.on_message(&telegram(&t));
         assert_eq!(status.address, 5);
         assert_eq!(status.nv_write, None);
+    }
+
+    /// Set_Prm from master 2 with the adapter's ident and one user parameter byte.
+    /// `fcb`: the frame count bit, alternating so that the second is not taken as a repeat.
+    fn set_prm(address: u8, user: u8, fcb: bool) -> Vec<u8> {
+        let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
+        let du = [0x88, 1, 20, 11, hi, lo, 0, user];
+        let fc = 0x5D | if fcb { 0x20 } else { 0 };
+        let mut t = vec![0x68, 0, 0, 0x68, address | 0x80, 0x82, fc, 61, 62];
+        t[1] = (5 + du.len()) as u8;
+        t[2] = t[1];
+        t.extend_from_slice(&du);
+        let fcs = fdl::fcs(&t[4..]);
+        t.extend_from_slice(&[fcs, 0x16]);
+        t
+    }
+
+    #[test]
+    fn user_parameters_are_checked_after_the_response_with_the_same_outcome() {
+        let app = EchoApp {
+            reject_user_prm_byte: Some(0x55),
+            ..EchoApp::default()
+        };
+        let mut adapter = Adapter::boot(8, None, app);
+        let t = set_prm(8, 0x55, false);
+        let message = telegram(&t);
+        let (response, status) = adapter.on_message(&message);
+        assert_eq!(response, [0xE5], "{:?}", fdl::Repr::parse_bytes(&t));
+        assert!(!adapter.slave().prm_fault());
+        // Taken on trust until the response has gone...
+        assert_eq!(status.state, SlaveState::WaitCfg);
+        // ... then refused: Prm_Fault in Wait_Prm, as a refusal before the response gives.
+        let status = adapter.after_message(&message);
+        assert_eq!(status.state, SlaveState::WaitPrm);
+        assert!(adapter.slave().prm_fault());
+        let t = set_prm(8, 0x00, true);
+        let message = telegram(&t);
+        adapter.on_message(&message);
+        assert_eq!(adapter.after_message(&message).state, SlaveState::WaitCfg);
+        assert!(!adapter.slave().prm_fault());
+        assert_eq!(adapter.app().user_prm, [0x00]);
     }
 
     #[test]

@@ -2,9 +2,10 @@
 //!
 //! Every message is postcard-encoded and COBS-framed (a zero byte ends each frame), defined
 //! once here for the firmware and the simulator. The exchange is strictly request/reply: each
-//! [`ToAdapter`] message gets exactly one [`FromAdapter::Reply`] with the same `seq`, so the
-//! transceiver always knows whether a response is coming and the firmware's queue never holds
-//! more than one message.
+//! [`ToAdapter`] message gets exactly one [`FromAdapter::Reply`] (the DP response, as soon as
+//! it is built) and then one [`FromAdapter::Done`] (the drive link's work after it) with the
+//! same `seq`, so the transceiver always knows whether a response is coming and the firmware's
+//! queue never holds more than one message.
 //!
 //! Time on the link is the transceiver's clock in microseconds (`now_us`): the firmware has no
 //! clock of its own for the protocol, so the DP watchdog runs on bus time, in QEMU as on the board.
@@ -50,8 +51,14 @@ pub enum ToAdapter<'a> {
         #[serde(borrow)]
         bytes: &'a [u8],
     },
-    /// Time passed without a telegram for us: the watchdog runs on it.
-    Tick { seq: u32, now_us: u64 },
+    /// Time passed without a telegram for us: the watchdog and the drive link run on it.
+    /// `drive_rx_bytes`: the bytes the drive has sent since power-up, all of which are in the
+    /// MCU's drive UART when this Tick is handled (the simulated drive link's lockstep).
+    Tick {
+        seq: u32,
+        now_us: u64,
+        drive_rx_bytes: u32,
+    },
 }
 
 impl ToAdapter<'_> {
@@ -71,6 +78,7 @@ pub enum FromAdapter<'a> {
     /// The MCU's link is up: sent once after reset, before which the transceiver sends nothing
     /// (bytes that reach a UART before it is configured are lost).
     Ready,
+    /// The response to a message, sent as soon as it is built.
     Reply {
         seq: u32,
         /// The response telegram, or empty for none.
@@ -80,6 +88,9 @@ pub enum FromAdapter<'a> {
         cycles: u32,
         status: Status,
     },
+    /// After each Reply: the work that follows it (the drive link) is done; the status after
+    /// it. Exactly one Reply and one Done answer each message.
+    Done { seq: u32, status: Status },
 }
 
 /// The slave's state after a message, for the transceiver and for observers.
@@ -93,8 +104,15 @@ pub struct Status {
     pub leds: Leds,
     /// A record the non-volatile storage must now hold.
     pub nv_write: Option<NvRecord>,
-    /// The next time the slave must see a Tick, if any (its watchdog deadline).
+    /// The next time the adapter must see a Tick, if any (the watchdog's deadline, the drive
+    /// link's answer deadline or keep-alive).
     pub poll_at_us: Option<u64>,
+    /// Bytes sent to the drive since power-up, all of them written to the drive UART before
+    /// this status (the simulated drive link's lockstep).
+    pub drive_tx_bytes: u32,
+    /// The drive link's error value (seed 000: 0x21, 0x22, 0x23, or the drive's refusal),
+    /// 0 while it works.
+    pub drive_link_error: u8,
     /// Outputs handed to the application since boot (a liveness figure for reports).
     pub outputs_applied: u32,
     /// Fail-safe entries since boot.
@@ -221,6 +239,8 @@ mod tests {
                 no_add_chg: true,
             }),
             poll_at_us: Some(1_000_000),
+            drive_tx_bytes: u32::MAX,
+            drive_link_error: 0x22,
             outputs_applied: 7,
             fail_safes: 1,
             malformed_telegrams: 0,
@@ -269,6 +289,7 @@ mod tests {
             ToAdapter::Tick {
                 seq: 2,
                 now_us: u64::MAX,
+                drive_rx_bytes: u32::MAX,
             },
         ];
         let mut stream = Vec::new();
@@ -312,7 +333,11 @@ mod tests {
     #[test]
     fn garbage_between_frames_is_dropped_and_the_next_frame_decodes() {
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(&ToAdapter::Tick { seq: 5, now_us: 6 }, &mut buf)
+        let frame = encode(&ToAdapter::Tick {
+                seq: 5,
+                now_us: 6,
+                drive_rx_bytes: 7,
+            }, &mut buf)
             .unwrap()
             .to_vec();
         let mut stream = vec![0xFF, 0x13, 0x00];
@@ -320,7 +345,11 @@ mod tests {
         let (got, dropped) = decode_all!(ToAdapter, &stream);
         assert_eq!(
             got,
-            [format!("{:?}", ToAdapter::Tick { seq: 5, now_us: 6 })]
+            [format!("{:?}", ToAdapter::Tick {
+                seq: 5,
+                now_us: 6,
+                drive_rx_bytes: 7,
+            })]
         );
         assert_eq!(dropped, 1);
     }

@@ -361,6 +361,18 @@ impl<A: Application> Slave<A> {
     }
 
     /// Leaves any state for Wait_Prm; the application goes fail-safe if data was exchanged.
+    /// The application refused user parameters it had first taken on trust (an adapter that
+    /// answers Set_Prm before it checks them): Prm_Fault, back to Wait_Prm, no owner, no lock,
+    /// no watchdog, as if the Set_Prm had been refused.
+    pub fn refuse_parameters(&mut self, now: Instant) {
+        self.prm_fault = true;
+        self.owner = None;
+        self.locked = false;
+        self.watchdog_micros = None;
+        self.watchdog_deadline = None;
+        self.leave_to_wait_prm(now, FailSafeReason::LeftDataExchange);
+    }
+
     fn leave_to_wait_prm(&mut self, now: Instant, reason: FailSafeReason) {
         if self.state == State::DataExch {
             self.app.fail_safe(now, reason);

@@ -158,6 +158,10 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
         }
     }
 
+    pub fn uart(&self) -> &U {
+        &self.uart
+    }
+
     pub fn uart_mut(&mut self) -> &mut U {
         &mut self.uart
     }

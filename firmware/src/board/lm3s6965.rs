@@ -1,6 +1,6 @@
 //! The QEMU board, `lm3s6965evb`: UART0 carries the transceiver link (QEMU's first `-serial`),
-//! UART1 is kept for the drive link, defmt goes out over semihosting, and panics exit QEMU
-//! with a failure code.
+//! UART1 the drive link (the second `-serial`; QEMU does not pace it, hal-sim puts it on
+//! simulated time), defmt goes out over semihosting, and panics exit QEMU with a failure code.
 //!
 //! The `lm3s6965` crate is the device crate RTIC's own QEMU examples use; it defines the
 //! interrupts only, not the registers, so the few UART registers are written here (no
@@ -24,6 +24,7 @@ pub struct Uart {
 }
 
 const UART0_BASE: usize = 0x4000_C000;
+const UART1_BASE: usize = 0x4000_D000;
 const DR: usize = 0x000;
 const FR: usize = 0x018;
 const LCRH: usize = 0x02C;
@@ -35,6 +36,14 @@ const FR_TXFF: u32 = 1 << 5;
 const LCRH_WLEN8_FEN: u32 = 0x70;
 const CTL_UARTEN_TXE_RXE: u32 = 0x301;
 const INT_RX_RT: u32 = (1 << 4) | (1 << 6);
+const INT_TX: u32 = 1 << 5;
+/// 8 bits, even parity, FIFOs on: Modbus RTU's 8E1.
+const LCRH_WLEN8_FEN_EVEN_PARITY: u32 = 0x76;
+/// DR's error bits: overrun, break, parity, framing.
+const DR_ERRORS: u32 = 0xF00;
+
+/// The drive link's interrupt.
+pub const DRIVE_INTERRUPT: pac::Interrupt = pac::Interrupt::UART1;
 
 impl Uart {
     fn read(&self, offset: usize) -> u32 {
@@ -64,6 +73,33 @@ impl Uart {
     }
 }
 
+/// The drive interrupt's work: received bytes in, queued bytes out while the FIFO takes them,
+/// the transmit interrupt on only while bytes wait.
+pub fn drive_interrupt() {
+    let uart = Uart { base: UART1_BASE };
+    uart.write(ICR, INT_RX_RT | INT_TX);
+    while uart.read(FR) & FR_RXFE == 0 {
+        let data = uart.read(DR);
+        crate::drive_uart::on_received(data as u8, data & DR_ERRORS != 0);
+    }
+    let mut waiting = false;
+    while uart.read(FR) & FR_TXFF == 0 {
+        match crate::drive_uart::next_to_send() {
+            Some(byte) => uart.write(DR, u32::from(byte)),
+            None => break,
+        }
+    }
+    if uart.read(FR) & FR_TXFF != 0 {
+        waiting = true;
+    }
+    uart.write(IM, INT_RX_RT | if waiting { INT_TX } else { 0 });
+}
+
+/// Runs the drive interrupt (after bytes were queued to send).
+pub fn pend_drive_interrupt() {
+    cortex_m::peripheral::NVIC::pend(DRIVE_INTERRUPT);
+}
+
 /// What `init` hands to the app.
 pub struct Board {
     /// The receive half of the link UART (the hardware task's).
@@ -87,6 +123,10 @@ pub fn init(core: cortex_m::Peripherals, _device: pac::Peripherals) -> Board {
     link.write(LCRH, LCRH_WLEN8_FEN);
     link.write(IM, INT_RX_RT);
     link.write(CTL, CTL_UARTEN_TXE_RXE);
+    let drive = Uart { base: UART1_BASE };
+    drive.write(LCRH, LCRH_WLEN8_FEN_EVEN_PARITY);
+    drive.write(IM, INT_RX_RT);
+    drive.write(CTL, CTL_UARTEN_TXE_RXE);
     Board { link }
 }
 

@@ -1,6 +1,7 @@
 //! The production board: an STM32F103C8 at 72 MHz (8 MHz crystal, PLL x9). USART1 (PA9 TX,
 //! PA10 RX) carries the link to the transceiver FPGA at 4.5 Mbit/s, the fastest USART1 runs at
-//! 72 MHz; USART2 is kept for the drive link. defmt goes out over RTT; a panic resets the chip.
+//! 72 MHz; USART2 (PA2 TX, PA3 RX) the Modbus RTU link to the drive at 2.25 Mbit/s 8E1, the
+//! fastest exact rate of APB1's 36 MHz. defmt goes out over RTT; a panic resets the chip.
 //!
 //! The rotary switch, the address EEPROM and the LEDs hang on the FPGA, which reads the switch
 //! and the storage into the Boot message, writes the storage from `Status::nv_write` and drives
@@ -32,6 +33,21 @@ const ACR_LATENCY_2_PRFTBE: u32 = 0b010 | (1 << 4);
 // RCC_APB2ENR
 const IOPAEN: u32 = 1 << 2;
 const USART1EN: u32 = 1 << 14;
+// RCC_APB1ENR
+const USART2EN: u32 = 1 << 17;
+// GPIOA_CRL, pin 2: alternate function push-pull, 50 MHz.
+const CRL_PIN2_MASK: u32 = 0xF << 8;
+const CRL_PIN2_AF_PP_50MHZ: u32 = 0xB << 8;
+const APB1_HZ: u32 = 36_000_000;
+const DRIVE_BAUD: u32 = 2_250_000;
+// USART_SR error flags: parity, framing, noise, overrun.
+const SR_ERRORS: u16 = 0b1111;
+// USART_CR1: 9-bit words with parity (8 data + even parity), TXE interrupt.
+const CR1_M_PCE: u16 = (1 << 12) | (1 << 10);
+const CR1_TXEIE: u16 = 1 << 7;
+
+/// The drive link's interrupt.
+pub const DRIVE_INTERRUPT: pac::Interrupt = pac::Interrupt::USART2;
 // GPIOA_CRH, pin 9: alternate function push-pull, 50 MHz.
 const CRH_PIN9_MASK: u32 = 0xF << 4;
 const CRH_PIN9_AF_PP_50MHZ: u32 = 0xB << 4;
@@ -68,6 +84,39 @@ impl Uart {
 
     /// Reading DR in `read_byte` already cleared RXNE.
     pub fn clear_rx_interrupt(&mut self) {}
+}
+
+fn usart2() -> &'static pac::usart1::RegisterBlock {
+    // SAFETY: USART2's register block is always mapped; only the drive interrupt touches it.
+    unsafe { &*pac::USART2::ptr() }
+}
+
+/// The drive interrupt's work: a received byte in, queued bytes out while the data register
+/// is empty, the TXE interrupt on only while bytes wait.
+pub fn drive_interrupt() {
+    let u = usart2();
+    let sr = u.sr().read().bits();
+    if sr & SR_RXNE != 0 {
+        // Reading SR then DR clears the error flags with RXNE.
+        let byte = u.dr().read().bits() as u8;
+        crate::drive_uart::on_received(byte, sr & SR_ERRORS != 0);
+    }
+    let mut waiting = false;
+    if u.sr().read().bits() & SR_TXE != 0 {
+        if let Some(byte) = crate::drive_uart::next_to_send() {
+            // SAFETY: any 8-bit value is a valid DR write.
+            u.dr().write(|w| unsafe { w.bits(u16::from(byte)) });
+            waiting = true;
+        }
+    }
+    let cr1 = CR1_UE_TE_RE_RXNEIE | CR1_M_PCE | if waiting { CR1_TXEIE } else { 0 };
+    // SAFETY: the documented CR1 bits named above.
+    u.cr1().write(|w| unsafe { w.bits(cr1) });
+}
+
+/// Runs the drive interrupt (after bytes were queued to send).
+pub fn pend_drive_interrupt() {
+    cortex_m::peripheral::NVIC::pend(DRIVE_INTERRUPT);
 }
 
 pub struct Board {
@@ -110,6 +159,20 @@ pub fn init(mut core: cortex_m::Peripherals, device: pac::Peripherals) -> Board 
     usart
         .cr1()
         .write(|w| unsafe { w.bits(CR1_UE_TE_RE_RXNEIE) });
+
+    rcc.apb1enr()
+        .modify(|r, w| unsafe { w.bits(r.bits() | USART2EN) });
+    device
+        .GPIOA
+        .crl()
+        .modify(|r, w| unsafe { w.bits((r.bits() & !CRL_PIN2_MASK) | CRL_PIN2_AF_PP_50MHZ) });
+    let drive = &device.USART2;
+    drive
+        .brr()
+        .write(|w| unsafe { w.bits((APB1_HZ / DRIVE_BAUD) as u16) });
+    drive
+        .cr1()
+        .write(|w| unsafe { w.bits(CR1_UE_TE_RE_RXNEIE | CR1_M_PCE) });
 
     core.DCB.enable_trace();
     core.DWT.enable_cycle_counter();

@@ -50,6 +50,9 @@ pub struct DriveWire {
     pub answers: u64,
     /// Each out block the drive applied whose words differ from the one before.
     pub applied: Vec<Applied>,
+    /// Each in block the drive answered whose words differ from the one before, at the time
+    /// the answer was complete at the adapter.
+    pub answered: Vec<Applied>,
 }
 
 impl DriveWire {
@@ -93,6 +96,15 @@ impl DriveWire {
         if let Some(answer) = answer {
             self.answers += 1;
             let done = at + frame_us(answer.len());
+            if answer.get(1) == Some(&drive_link::READ_WRITE_MULTIPLE) && answer.len() >= 5 {
+                let words: Vec<u16> = answer[3..answer.len() - 2]
+                    .chunks_exact(2)
+                    .map(|b| u16::from_be_bytes([b[0], b[1]]))
+                    .collect();
+                if self.answered.last().map(|a| &a.words) != Some(&words) {
+                    self.answered.push(Applied { at_us: done, words });
+                }
+            }
             self.line_free_us = done + gap_us();
             self.deliveries.push_back((done, answer));
         }

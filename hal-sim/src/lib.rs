@@ -11,6 +11,7 @@
 #![deny(unsafe_code)]
 
 pub mod cosim;
+pub mod drive_scenarios;
 pub mod drive_sim;
 pub mod drive_wire;
 pub mod firmware;

@@ -1,9 +1,10 @@
 //! The scenarios of `cargo xtask qemu-test`: each powers the board up, drives the bus, and
 //! checks what the device must do. A scenario fails on any failed check, and always when a
 //! response started later than max TSDR, when the firmware saw a telegram that does not parse,
-//! when the loopback inputs did not answer the outputs, or when two stations drove the line.
+//! when the inputs did not carry the outputs back through the drive (the echo program), or
+//! when two stations drove the line. The drive scenarios are in [`crate::drive_scenarios`].
 
-use crate::cosim::{CoSim, Figures, MasterSetup};
+use crate::cosim::{CoSim, Figures, MasterSetup, Program};
 use crate::firmware::Firmware;
 use dp_consts::Baud;
 use dp_link::{Led, NvRecord, SlaveState};
@@ -32,6 +33,15 @@ pub enum Kind {
     FactoryReset,
     /// A burst of line noise during data exchange.
     LineNoise,
+    /// The drive through PZD and PKW in the vendor profile (seed 000), its faults, the link
+    /// to it lost and back.
+    DriveVendor,
+    /// The same drive in the PROFIdrive profile (seed 004).
+    DriveProfidrive,
+    /// PLC stop and communication loss, in each fail-safe mode.
+    FailSafeModes,
+    /// Adapter latency for PPO1-5 at 1.5 Mbit/s (figures for the report).
+    Latency,
 }
 
 #[derive(Clone, Debug)]
@@ -63,6 +73,10 @@ pub fn all() -> Vec<Scenario> {
         ("set-slave-add", Kind::SetSlaveAdd),
         ("factory-reset", Kind::FactoryReset),
         ("line-noise", Kind::LineNoise),
+        ("drive-vendor", Kind::DriveVendor),
+        ("drive-profidrive", Kind::DriveProfidrive),
+        ("fail-safe-modes", Kind::FailSafeModes),
+        ("latency", Kind::Latency),
     ];
     list.extend(more.into_iter().map(|(name, kind)| Scenario {
         name: name.into(),
@@ -79,6 +93,8 @@ pub struct Outcome {
     pub figures: Figures,
     pub events: Vec<String>,
     pub leds: dp_link::Leds,
+    /// Figures for the report (not compared with the golden files: they are measurements).
+    pub report: Vec<String>,
 }
 
 impl Outcome {
@@ -130,6 +146,18 @@ fn diag_flags<F: Firmware>(sim: &mut CoSim<F>) -> Option<DiagnosticFlags> {
     peripheral.last_diagnostics().map(|d| d.flags)
 }
 
+/// The extended diagnosis the master read last (header byte, then the adapter's flags).
+pub(crate) fn ext_diag<F: Firmware>(sim: &mut CoSim<F>) -> Vec<u8> {
+    let Some(master) = sim.master.as_mut() else {
+        return Vec::new();
+    };
+    let peripheral = master.dp.get_mut(master.handle);
+    peripheral
+        .last_diagnostics()
+        .and_then(|d| d.extended_diagnostics.raw_diag_buffer().map(<[u8]>::to_vec))
+        .unwrap_or_default()
+}
+
 /// A master whose parameters or configuration the slave refuses: no data exchange, the
 /// master reads the fault in the diagnosis, the error LED blinks at its rate.
 fn refused<F: Firmware>(
@@ -169,6 +197,7 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
     };
     let mut sim = CoSim::new(firmware, switch, nv)?;
     let mut c = Checks(Vec::new());
+    let mut report = Vec::new();
     match scenario.kind {
         Kind::Autodetect(baud) => {
             sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
@@ -321,6 +350,10 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             let ok = exchange(&mut sim, 50, limit_us(baud))?;
             c.check("data exchange recovered", ok);
         }
+        Kind::DriveVendor => crate::drive_scenarios::vendor(&mut sim, &mut c.0)?,
+        Kind::DriveProfidrive => crate::drive_scenarios::profidrive(&mut sim, &mut c.0)?,
+        Kind::FailSafeModes => crate::drive_scenarios::fail_safe_modes(&mut sim, &mut c.0)?,
+        Kind::Latency => report = crate::drive_scenarios::latency(&mut sim, &mut c.0)?,
     }
     let figures = sim.figures.clone();
     c.check(
@@ -331,8 +364,11 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
         "the firmware never got a malformed telegram",
         sim.status.malformed_telegrams == 0,
     );
-    if let Some(m) = &sim.master {
-        c.check("inputs answered the outputs", m.inputs_wrong == 0);
+    if let Some(m) = sim.master.as_ref().filter(|m| m.program == Program::EchoThroughDrive) {
+        c.check(
+            "inputs carried PZD2 back through the drive, never a value not sent",
+            (m.cycles < 20 || m.inputs_checked > 0) && m.inputs_wrong == 0,
+        );
     }
     c.check("no collision on the line", sim.bus.collisions == 0);
     let mut figures = figures;
@@ -343,6 +379,7 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
         figures,
         events: sim.events.clone(),
         leds: sim.status.leds,
+        report,
     };
     Ok((outcome, sim.firmware))
 }

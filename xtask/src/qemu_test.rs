@@ -136,6 +136,11 @@ pub fn run(args: &[String]) -> Result<()> {
         rows.push((s.name.clone(), ok, outcome));
     }
     print_table(&rows);
+    for (_, _, outcome) in &rows {
+        for line in outcome.iter().flat_map(|o| &o.report) {
+            println!("{line}");
+        }
+    }
     let passed = rows.iter().filter(|(_, ok, _)| *ok).count();
     println!(
         "scenarios ran in {:.1} s after the build; waveform-free run, logs in ci/expected/qemu-test/",

@@ -61,6 +61,10 @@ pub trait Background {
     fn drive_link_error(&self) -> u8 {
         0
     }
+    /// The station address at power-up, and the rate each telegram came at (rate index of
+    /// `dp_consts::Baud`), for the parameters that show them (PROFIdrive 918 and 963).
+    fn station(&mut self, _address: u8) {}
+    fn rate(&mut self, _baud_index: u8) {}
 }
 
 /// A UART that counts what it sent (the simulated drive link's lockstep needs the count).
@@ -87,6 +91,15 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
 
     fn drive_link_error(&self) -> u8 {
         self.drive().link_error().map_or(0, |e| e.code())
+    }
+
+    fn station(&mut self, address: u8) {
+        self.params_mut().node_address = u16::from(address);
+    }
+
+    fn rate(&mut self, baud_index: u8) {
+        // 963 counts the other way: 0 = 12M .. 9 = 9.6k (the SPC3's code).
+        self.params_mut().baud_code = u16::from(9u8.saturating_sub(baud_index));
     }
 }
 
@@ -231,8 +244,9 @@ pub struct Adapter<A> {
 
 impl<A: Application + Background> Adapter<A> {
     /// Power-up with the switch reading and the storage contents.
-    pub fn boot(switch: u8, nv: Option<NvRecord>, app: A) -> Adapter<A> {
+    pub fn boot(switch: u8, nv: Option<NvRecord>, mut app: A) -> Adapter<A> {
         let addressing = addressing(switch, nv);
+        app.station(addressing.address);
         let slave = Slave::new(
             Config {
                 address: addressing.address,
@@ -279,8 +293,14 @@ impl<A: Application + Background> Adapter<A> {
     /// response, then calls [`Adapter::after_message`].
     pub fn on_message(&mut self, message: &ToAdapter) -> (&[u8], Status) {
         let len = match *message {
-            ToAdapter::Telegram { now_us, bytes, .. } => match fdl::Repr::parse_bytes(bytes) {
+            ToAdapter::Telegram {
+                now_us,
+                bytes,
+                baud,
+                ..
+            } => match fdl::Repr::parse_bytes(bytes) {
                 Ok((request, _)) => {
+                    self.slave.app_mut().inner.rate(baud);
                     let now = Instant::from_micros(now_us);
                     match self.slave.process(now, &request) {
                         Some(response) => response.emit(&mut self.response).unwrap_or(0),

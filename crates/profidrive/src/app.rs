@@ -47,6 +47,9 @@ pub const LINK_LOST_PERMANENTLY_US: u64 = 1_000_000;
 pub const EXT_DIAG_LEN: u8 = 2;
 pub const EXT_DIAG_LINK_LOST_TEMPORARILY: u8 = 0x01;
 pub const EXT_DIAG_LINK_LOST_PERMANENTLY: u8 = 0x02;
+/// The drive reports a fault (its status word's fault bit): the master learns of it from the
+/// diagnosis too, not only from the status word it may not be watching.
+pub const EXT_DIAG_DRIVE_FAULT: u8 = 0x04;
 
 pub struct ProfidriveApp<D> {
     drive: D,
@@ -338,6 +341,10 @@ impl<D: Drive> ProfidriveApp<D> {
                 EXT_DIAG_LINK_LOST_PERMANENTLY
             }
             Some(_) => EXT_DIAG_LINK_LOST_TEMPORARILY,
+        } | if self.drive_status & status::FAULT != 0 {
+            EXT_DIAG_DRIVE_FAULT
+        } else {
+            0
         };
         if flags != self.ext_diag_flags {
             self.ext_diag_flags = flags;

@@ -1,0 +1,482 @@
+//! The drive scenarios of `cargo xtask qemu-test`: the profirust master drives the simulated
+//! drive through the adapter (PZD and the parameter channel), in both profiles; the fail-safe
+//! modes; and the adapter's latency per PPO.
+//!
+//! Every check reads what the master received or what the drive simulator holds: nothing is
+//! taken from the adapter's own account. The master's outputs and inputs are words here
+//! (PKW first, then PZD), big-endian as on the bus.
+
+use crate::cosim::{CoSim, MasterSetup, Program};
+use crate::drive_sim::{
+    DriveSim, LinkFault, ACCEL_TIME, DECEL_TIME, OUTPUT_CURRENT, SET_FREQUENCY,
+};
+use crate::firmware::Firmware;
+use crate::scenario::SWITCH_ADDRESS;
+use dp_consts::Baud;
+use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
+use profidrive::codes::FunctionCode;
+use profidrive::pd_params::{request as rq, response, Frame};
+use profidrive::pkw::{Request, Task, REPLY_REFUSED, REPLY_VALUE};
+use profidrive::ppo::Ppo;
+use profidrive::prm::{FailSafeMode, OperationMode, UserPrm};
+use profidrive::profile::{control as pd, status as pds};
+use profidrive::words::{control, status};
+use std::io;
+
+type Checks = Vec<(String, bool)>;
+
+fn check(c: &mut Checks, what: impl Into<String>, ok: bool) {
+    c.push((what.into(), ok));
+}
+
+const BAUD: Baud = Baud::B1500000;
+/// The vendor control word that runs the drive forward.
+const START: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
+const TICKS_PER_US: u64 = (crate::cosim::CLOCK_HZ / 1_000_000) as u64;
+
+fn setup(ppo: Ppo, prm: UserPrm) -> MasterSetup {
+    let mut setup = MasterSetup::new(BAUD, SWITCH_ADDRESS);
+    setup.config = ppo.cfg().to_vec();
+    setup.user_prm = prm.encode().to_vec();
+    setup
+}
+
+/// Starts the master with all-zero outputs under the scenario's control; true once it
+/// exchanges data.
+fn start<F: Firmware>(sim: &mut CoSim<F>, setup: MasterSetup) -> io::Result<bool> {
+    sim.start_master(setup);
+    if let Some(m) = sim.master.as_mut() {
+        m.program = Program::Manual;
+    }
+    let end = sim.now + 500_000 * TICKS_PER_US;
+    sim.run_until(end, |s| s.master.as_mut().is_some_and(|m| m.running() && m.cycles > 2))
+}
+
+fn words(bytes: &[u8]) -> Vec<u16> {
+    bytes
+        .chunks_exact(2)
+        .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        .collect()
+}
+
+/// The master's outputs from now on.
+fn put<F: Firmware>(sim: &mut CoSim<F>, out: &[u16]) {
+    if let Some(m) = sim.master.as_mut() {
+        m.outputs = out.iter().flat_map(|w| w.to_be_bytes()).collect();
+    }
+}
+
+/// The inputs the master received last.
+fn inputs<F: Firmware>(sim: &CoSim<F>) -> Vec<u16> {
+    sim.master.as_ref().map_or(Vec::new(), |m| words(&m.inputs))
+}
+
+/// Runs until `done(inputs, drive)` holds after a data exchange cycle, or `limit_us` passed.
+fn wait<F: Firmware>(
+    sim: &mut CoSim<F>,
+    limit_us: u64,
+    mut done: impl FnMut(&[u16], &mut DriveSim) -> bool,
+) -> io::Result<bool> {
+    let end = sim.now + limit_us * TICKS_PER_US;
+    let mut seen = u64::MAX;
+    sim.run_until(end, |s| {
+        let cycles = s.master.as_ref().map_or(0, |m| m.cycles);
+        if cycles == seen {
+            return false;
+        }
+        seen = cycles;
+        let i = inputs(s);
+        !i.is_empty() && done(&i, s.drive_now())
+    })
+}
+
+/// Runs until the extended diagnosis the master read has `flag` set, at most `limit_us`.
+fn wait_diag<F: Firmware>(sim: &mut CoSim<F>, limit_us: u64, flag: u8) -> io::Result<Vec<u8>> {
+    let end = sim.now_us() + limit_us;
+    loop {
+        let diag = crate::scenario::ext_diag(sim);
+        if diag.get(1).is_some_and(|f| f & flag != 0) || sim.now_us() >= end {
+            return Ok(diag);
+        }
+        sim.run_for_us(1_000)?;
+    }
+}
+
+/// Sends one parameter request (the PKW words) with the PZD words `pzd`, first clearing the
+/// channel with an empty request; returns the reply words, or `None` if none came in 200 ms.
+fn pkw<F: Firmware>(sim: &mut CoSim<F>, request: [u16; 4], pzd: &[u16]) -> io::Result<Option<Vec<u16>>> {
+    let mut out = vec![0u16; 4];
+    out.extend_from_slice(pzd);
+    put(sim, &out);
+    wait(sim, 200_000, |i, _| i[..4] == [0, 0, 0, 0])?;
+    out[..4].copy_from_slice(&request);
+    put(sim, &out);
+    let replied = wait(sim, 200_000, |i, _| i[0] != 0)?;
+    Ok(replied.then(|| inputs(sim)[..4].to_vec()))
+}
+
+fn vendor_request(task: Task, code: u16, value: u16) -> [u16; 4] {
+    let bytes = Request {
+        task,
+        code: FunctionCode(code),
+        value,
+    }
+    .encode();
+    let w = words(&bytes);
+    [w[0], w[1], w[2], w[3]]
+}
+
+/// A vendor PKW reply: (reply ID, value).
+fn vendor_reply(reply: &Option<Vec<u16>>) -> Option<(u8, u16)> {
+    reply.as_ref().map(|r| ((r[0] >> 12) as u8, r[3]))
+}
+
+/// Seed 000 in the vendor profile, PPO1: parameters, a run with the ramp, reverse, quick and
+/// coast stop, another PZD mapping, a drive fault and its reset, the drive link lost and back.
+pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()> {
+    let ok = start(sim, setup(Ppo::Ppo1, UserPrm::DEFAULT))?;
+    check(c, "PPO1, vendor profile: data exchange", ok);
+
+    // PKW: ramps of 1.0 s (F0.13, F0.14 in 0.1 s), read back; then the error paths.
+    let idle = [control::REMOTE, 0];
+    let r = pkw(sim, vendor_request(Task::Write, ACCEL_TIME, 10), &idle)?;
+    check(c, "PKW write F0.13 = 10: reply 1 with the value", vendor_reply(&r) == Some((REPLY_VALUE, 10)));
+    let r = pkw(sim, vendor_request(Task::Write, DECEL_TIME, 10), &idle)?;
+    check(c, "PKW write F0.14 = 10: reply 1", vendor_reply(&r) == Some((REPLY_VALUE, 10)));
+    let held = sim.drive_now().read_register(ACCEL_TIME) == Ok(10)
+        && sim.drive_now().read_register(DECEL_TIME) == Ok(10);
+    check(c, "the drive holds F0.13 = F0.14 = 10", held);
+    let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &idle)?;
+    check(c, "PKW read F0.13: reply 1, 10", vendor_reply(&r) == Some((REPLY_VALUE, 10)));
+    let r = pkw(sim, vendor_request(Task::Read, 0xF058, 0), &idle)?;
+    check(c, "PKW read F0.58 (no such parameter): reply 7, 0x02 illegal address", vendor_reply(&r) == Some((REPLY_REFUSED, 0x02)));
+    let r = pkw(sim, vendor_request(Task::Write, 0xD000, 1), &idle)?;
+    check(c, "PKW write D0.00 (a status value): reply 7, 0x11 access restricted", vendor_reply(&r) == Some((REPLY_REFUSED, 0x11)));
+    let r = pkw(sim, vendor_request(Task::Write, SET_FREQUENCY, 9000), &idle)?;
+    check(c, "PKW write F0.29 above F0.10: reply 7, 0x03 invalid data", vendor_reply(&r) == Some((REPLY_REFUSED, 0x03)));
+    let r = pkw(sim, vendor_request(Task::Unknown(5), SET_FREQUENCY, 0), &idle)?;
+    check(c, "PKW task 5: reply 7, 0x01 illegal operation", vendor_reply(&r) == Some((REPLY_REFUSED, 0x01)));
+
+    // Run at 25.00 Hz: the ramp of 1.0 s to 50.00 Hz gets there in 0.5 s.
+    let mut out = vec![0, 0, 0, 0, START, 2500];
+    put(sim, &out);
+    let accelerating = wait(sim, 100_000, |i, _| i[4] & status::ACCELERATING != 0 && i[5] > 0)?;
+    check(c, "run: status word accelerating, output frequency rising", accelerating);
+    let at_setpoint = wait(sim, 700_000, |i, d| {
+        i[4] & status::AT_SETPOINT != 0 && i[5] == 2500 && d.output_frequency() == 2500
+    })?;
+    check(c, "run: at setpoint 25.00 Hz within the ramp time (PZD2 in = D0.00)", at_setpoint);
+    out[4] = START | control::REVERSE;
+    put(sim, &out);
+    let reversed = wait(sim, 1_500_000, |i, d| {
+        i[4] & status::REVERSE != 0 && i[4] & status::AT_SETPOINT != 0 && d.reverse()
+    })?;
+    check(c, "reverse: through zero to 25.00 Hz reverse", reversed);
+    out[4] = START | control::QUICK_STOP;
+    put(sim, &out);
+    let t0 = sim.now_us();
+    let stopped = wait(sim, 300_000, |i, _| i[4] & status::ZERO_SPEED != 0 && i[5] == 0)?;
+    let quick_ms = (sim.now_us() - t0) / 1000;
+    // From 25.00 Hz at a tenth of the 1.0 s deceleration: 50 ms, plus the link's delay.
+    check(c, format!("quick stop: zero speed in {quick_ms} ms (< 100)"), stopped && quick_ms < 100);
+    out[4] = START;
+    put(sim, &out);
+    wait(sim, 700_000, |i, _| i[4] & status::AT_SETPOINT != 0)?;
+    out[4] = START | control::COAST_STOP;
+    put(sim, &out);
+    let t0 = sim.now_us();
+    let coasted = wait(sim, 100_000, |i, _| i[5] == 0)?;
+    check(c, format!("coast stop: output off at once ({} us)", sim.now_us() - t0), coasted && sim.now_us() - t0 < 5_000);
+
+    // A drive fault: status word, DE.00 through PKW, the diagnosis; the fault reset.
+    out[4] = START;
+    put(sim, &out);
+    sim.drive_now().inject_fault(12);
+    let faulted = wait(sim, 50_000, |i, _| i[4] & status::FAULT != 0)?;
+    check(c, "Fu.012: the status word shows the fault", faulted);
+    let r = pkw(sim, vendor_request(Task::Read, 0xDE00, 0), &out[4..])?;
+    check(c, "PKW read DE.00: 0x8C (Fu.012)", vendor_reply(&r) == Some((REPLY_VALUE, 0x8C)));
+    let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
+    check(c, format!("the diagnosis shows the drive fault ({diag:02X?})"), diag.get(1).is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0));
+    out[4] = START | control::FAULT_RESET;
+    put(sim, &out);
+    let reset = wait(sim, 50_000, |i, d| i[4] & status::FAULT == 0 && d.fault().is_none())?;
+    check(c, "fault reset (control bit 15): fault cleared", reset);
+    out[4] = START;
+    put(sim, &out);
+
+    // The drive link lost: PZD1 0xC022, the diagnosis, PKW refused with 0x22; and back.
+    sim.drive_now().link_fault = LinkFault::Disconnected;
+    let lost = wait(sim, 50_000, |i, _| i[4] == 0xC022)?;
+    check(c, "cable out: PZD1 = 0xC022 (no answer) within 50 ms", lost);
+    let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY)?;
+    check(c, format!("the diagnosis: drive link lost ({diag:02X?})"), diag.get(1).is_some_and(|f| f & profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY != 0));
+    let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &out[4..])?;
+    check(c, "PKW to a drive that does not answer: reply 7, 0x22", vendor_reply(&r) == Some((REPLY_REFUSED, 0x22)));
+    sim.drive_now().link_fault = LinkFault::CrcError;
+    let crc = wait(sim, 50_000, |i, _| i[4] == 0xC023)?;
+    check(c, "answers with a bad CRC: PZD1 = 0xC023", crc);
+    sim.drive_now().link_fault = LinkFault::None;
+    let back = wait(sim, 50_000, |i, _| i[4] & 0xFF00 != 0xC000 && i[4] & status::RUNNING != 0)?;
+    check(c, "cable back: the status word again, the drive running", back);
+
+    // Another mapping through the user parameters: PZD2 in from D0.04 (output current).
+    let mut prm = UserPrm::DEFAULT;
+    prm.rd_pzd[0] = FunctionCode(OUTPUT_CURRENT);
+    let ok = start(sim, setup(Ppo::Ppo1, prm))?;
+    put(sim, &out);
+    let remapped = ok && wait(sim, 700_000, |i, d| i[5] != 0 && i[5] == d.output_frequency() / 10 && d.output_frequency() == 2500)?;
+    check(c, "RdPZD2 = D0.04: PZD2 in is the output current", remapped);
+    Ok(())
+}
+
+fn pd_request(label: u8, pnu: u16, index: u8, value: u32) -> [u16; 4] {
+    let w = words(&Frame { label, pnu, index, value }.encode());
+    [w[0], w[1], w[2], w[3]]
+}
+
+fn pd_reply(reply: &Option<Vec<u16>>) -> Option<(u8, u32)> {
+    reply.as_ref().map(|r| {
+        let frame = Frame::decode(&r.iter().flat_map(|w| w.to_be_bytes()).collect::<Vec<_>>().try_into().unwrap());
+        (frame.label, frame.value)
+    })
+}
+
+/// Seed 004's PROFIdrive profile on the same drive, PPO1: the state machine to Operation,
+/// speed reference and actual value scaled to 0x4000, reverse by a negative reference, OFF3
+/// quick stop and OFF2 coast stop, drive parameters and PROFIdrive parameters through the
+/// parameter channel with their error numbers, a fault in 945 and its acknowledgement.
+pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()> {
+    let prm = UserPrm {
+        operation: OperationMode::Profidrive,
+        ..UserPrm::DEFAULT
+    };
+    let ok = start(sim, setup(Ppo::Ppo1, prm))?;
+    check(c, "PPO1, PROFIdrive profile: data exchange", ok);
+    let mut out = vec![0, 0, 0, 0, pd::READY, 0x2000];
+    put(sim, &out);
+    let ready = wait(sim, 100_000, |i, _| i[4] & pds::RDY_ON != 0)?;
+    check(c, "READY (0x047E): status word ready to switch on", ready);
+    // Drive parameters 113/114 (F0.13/F0.14): ramps of 1.0 s.
+    for pnu_number in [113u16, 114] {
+        let r = pkw(sim, pd_request(rq::WRITE_WORD, pnu_number >> 8, pnu_number as u8, 10), &out[4..])?;
+        check(c, format!("PKW write drive parameter {pnu_number} = 10: accepted"), pd_reply(&r).is_some_and(|(l, v)| l == response::ARRAY_WORD && v == 10));
+    }
+    let r = pkw(sim, pd_request(rq::READ, 918 , 0, 0), &out[4..])?;
+    check(c, "PKW read 918 (node address): 8", pd_reply(&r) == Some((response::WORD, u32::from(SWITCH_ADDRESS))));
+    let r = pkw(sim, pd_request(rq::READ, 999, 0, 0), &out[4..])?;
+    check(c, "PKW read 999 (no such parameter): error 0", pd_reply(&r) == Some((response::ERROR, 0)));
+    let r = pkw(sim, pd_request(rq::WRITE_WORD, 2100 >> 8, 2100u16 as u8, 5), &out[4..])?;
+    check(c, "PKW write drive parameter 2100 (D0.00, a status value): error 1, read only", pd_reply(&r) == Some((response::ERROR, 1)));
+    sim.drive_now().link_fault = LinkFault::NoAnswer;
+    let r = pkw(sim, pd_request(rq::READ, 0, 113, 0), &out[4..])?;
+    check(c, "PKW read 113 from a drive that does not answer: error 111, timeout", pd_reply(&r) == Some((response::ERROR, 111)));
+    sim.drive_now().link_fault = LinkFault::None;
+    out[4] = pd::OPERATE;
+    put(sim, &out);
+    let running = wait(sim, 800_000, |i, d| {
+        i[4] & pds::AT_SETPOINT != 0 && i[5] == 0x2000 && d.output_frequency() == 2500
+    })?;
+    check(c, "OPERATE, reference 0x2000: the drive at 25.00 Hz, actual 0x2000, at setpoint", running);
+    out[5] = 0xE000; // -0x2000
+    put(sim, &out);
+    let reversed = wait(sim, 1_500_000, |i, d| i[5] == 0xE000 && d.reverse())?;
+    check(c, "reference -0x2000: reverse at 25.00 Hz, actual -0x2000", reversed);
+    out[4] = pd::OPERATE & !pd::NO_OFF3;
+    put(sim, &out);
+    let t0 = sim.now_us();
+    let off3 = wait(sim, 300_000, |i, d| i[5] == 0 && d.output_frequency() == 0)?;
+    check(c, format!("OFF3 (quick stop): zero speed in {} ms", (sim.now_us() - t0) / 1000), off3 && sim.now_us() - t0 < 100_000);
+    out = vec![0, 0, 0, 0, pd::READY, 0x2000];
+    put(sim, &out);
+    wait(sim, 50_000, |i, _| i[4] & pds::RDY_ON != 0)?;
+    out[4] = pd::OPERATE;
+    out[5] = 0x2000;
+    put(sim, &out);
+    wait(sim, 800_000, |i, _| i[4] & pds::AT_SETPOINT != 0)?;
+    out[4] = pd::OPERATE & !pd::NO_OFF2;
+    put(sim, &out);
+    let off2 = wait(sim, 20_000, |_, d| d.output_frequency() == 0)?;
+    check(c, "OFF2 (coast stop): output off at once", off2);
+    out[4] = pd::READY;
+    put(sim, &out);
+    wait(sim, 50_000, |i, _| i[4] & pds::RDY_ON != 0)?;
+    out[4] = pd::OPERATE;
+    put(sim, &out);
+    sim.drive_now().inject_fault(12);
+    let tripped = wait(sim, 50_000, |i, _| i[4] & pds::TRIPPED != 0)?;
+    check(c, "Fu.012: status word bit 3 (fault)", tripped);
+    let r = pkw(sim, pd_request(rq::READ_ARRAY, 945, 1, 0), &out[4..])?;
+    check(c, "PKW read 945[1] (fault code): 12", pd_reply(&r) == Some((response::ARRAY_WORD, 12)));
+    let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
+    check(c, format!("the diagnosis shows the drive fault ({diag:02X?})"), diag.get(1).is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0));
+    out[4] = pd::READY | pd::RESET;
+    put(sim, &out);
+    let acknowledged = wait(sim, 50_000, |i, d| i[4] & pds::TRIPPED == 0 && d.fault().is_none())?;
+    check(c, "fault acknowledge (bit 7): fault cleared", acknowledged);
+    Ok(())
+}
+
+/// A Global_Control Clear_Data from the master's address, sent by the commissioning tool
+/// (profirust 0.6 cannot send one): the PLC stopped.
+fn plc_stop<F: Firmware>(sim: &mut CoSim<F>, setup: &MasterSetup) -> io::Result<()> {
+    let payload = [dp_consts::control_command::CLEAR_DATA, 0];
+    let request = Repr::Data(DataRepr {
+        da: SWITCH_ADDRESS,
+        sa: setup.address,
+        dsap: Some(Sap::GLOBAL_CONTROL),
+        ssap: Some(Sap::MASTER_MS0),
+        fc: FrameControl::Request {
+            fcb: false,
+            fcv: false,
+            function: RequestFunction::SdnLow,
+        },
+        payload: &payload,
+    });
+    let mut bytes = vec![0u8; request.buffer_len()];
+    request.emit(&mut bytes).expect("a valid request");
+    let mut tool = setup.clone();
+    tool.slave_address = SWITCH_ADDRESS;
+    sim.tool_request(tool, &bytes, 100)?;
+    Ok(())
+}
+
+/// Each fail-safe mode (seed 004, extended Prm_Data byte 8), on a PLC stop (Global_Control
+/// Clear) and on a communication loss (the DP watchdog): what the drive is told.
+pub fn fail_safe_modes<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()> {
+    let fail_safe_pzd = {
+        let mut pzd = [0u16; 10];
+        pzd[0] = START;
+        pzd[1] = 1234;
+        pzd
+    };
+    for mode in [FailSafeMode::Stop, FailSafeMode::LastSpeed, FailSafeMode::UseFailSafeValues] {
+        for cause in ["PLC stop", "communication loss"] {
+            let prm = UserPrm {
+                fail_safe: mode,
+                fail_safe_pzd,
+                ..UserPrm::DEFAULT
+            };
+            let setup = setup(Ppo::Ppo3, prm);
+            let ok = start(sim, setup.clone())?;
+            put(sim, &[START, 3000]);
+            let running = ok && wait(sim, 100_000, |_, d| d.control_word() == START && d.read_register(SET_FREQUENCY) == Ok(3000))?;
+            check(c, format!("{mode:?}, {cause}: the drive runs at 30.00 Hz first"), running);
+            if cause == "PLC stop" {
+                plc_stop(sim, &setup)?;
+            } else {
+                sim.stop_master();
+                // The master's watchdog is 200 ms.
+            }
+            sim.run_for_us(if cause == "PLC stop" { 20_000 } else { 250_000 })?;
+            let d = sim.drive_now();
+            let (cw, f) = (d.control_word(), d.read_register(SET_FREQUENCY).unwrap_or(0));
+            let (want, ok) = match mode {
+                FailSafeMode::Stop => ("run bit off", cw & control::RUN == 0),
+                FailSafeMode::LastSpeed => ("run at 30.00 Hz", cw == START && f == 3000),
+                FailSafeMode::UseFailSafeValues => ("the fail-safe PZD: run at 12.34 Hz", cw == START && f == 1234),
+            };
+            check(c, format!("{mode:?}, {cause}: the drive gets {want} (CW {cw:04X}, F0.29 {f})"), ok);
+        }
+    }
+    Ok(())
+}
+
+/// Adapter latency per PPO at 1.5 Mbit/s, in simulated time: from a PZD output arriving at
+/// the adapter (the end of the Data_Exchange request that first carries it) to the drive
+/// applying it; and from a drive status change to the end of the first Data_Exchange
+/// response that carries it. Each figure is the worst of 20 changes at varying phases.
+pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Vec<String>> {
+    let mut report = Vec::new();
+    for ppo in [Ppo::Ppo1, Ppo::Ppo2, Ppo::Ppo3, Ppo::Ppo4, Ppo::Ppo5] {
+        let ok = start(sim, setup(ppo, UserPrm::DEFAULT))?;
+        check(c, format!("PPO{}: data exchange", ppo.number()), ok);
+        let pkw_words = if ppo.has_pkw() { 4 } else { 0 };
+        let pzd_words = ppo.pzd_words();
+        let mut out = vec![0u16; pkw_words + pzd_words];
+        out[pkw_words] = control::REMOTE;
+        put(sim, &out);
+        wait(sim, 20_000, |_, _| false)?;
+        sim.log_dx = true;
+        let (mut to_drive, mut to_master, mut to_adapter) = (Vec::new(), Vec::new(), Vec::new());
+        for n in 0..20u64 {
+            // Outputs: a new set frequency in PZD2.
+            let value = 100 + n as u16 * 10;
+            out[pkw_words + 1] = value;
+            put(sim, &out);
+            let outputs_before = sim.dx.outputs.len();
+            let applied_before = sim.drive.applied.len();
+            wait(sim, 50_000, |_, d| d.read_register(SET_FREQUENCY) == Ok(value))?;
+            let arrived = sim.dx.outputs[outputs_before..]
+                .iter()
+                .find(|(_, o)| words(o).get(pkw_words + 1) == Some(&value))
+                .map(|(t, _)| *t);
+            let applied = sim.drive.applied[applied_before..]
+                .iter()
+                .find(|a| a.words.get(1) == Some(&value))
+                .map(|a| a.at_us);
+            match (arrived, applied) {
+                (Some(a), Some(b)) if b >= a => to_drive.push(b - a),
+                _ => check(c, format!("PPO{}: output {value} traced to the drive", ppo.number()), false),
+            }
+            // Inputs: a warning on and off flips the status word's bit 14.
+            wait(sim, 1_000 + n * 137, |_, _| false)?;
+            let warn = n % 2 == 0;
+            let changed_at = sim.now_us();
+            let inputs_before = sim.dx.inputs.len();
+            let answered_before = sim.drive.answered.len();
+            sim.drive_now().set_warning(warn.then_some(36));
+            wait(sim, 50_000, |i, _| (i[pkw_words] & status::WARNING != 0) == warn)?;
+            let seen = sim.dx.inputs[inputs_before..]
+                .iter()
+                .find(|(_, i)| words(i).get(pkw_words).is_some_and(|sw| (sw & status::WARNING != 0) == warn))
+                .map(|(t, _)| *t);
+            let at_adapter = sim.drive.answered[answered_before..]
+                .iter()
+                .find(|a| a.words.first().is_some_and(|sw| (sw & status::WARNING != 0) == warn))
+                .map(|a| a.at_us);
+            if let Some(t) = at_adapter {
+                to_adapter.push(t - changed_at);
+            }
+            match seen {
+                Some(t) => to_master.push(t - changed_at),
+                None => check(c, format!("PPO{}: status change traced to the master", ppo.number()), false),
+            }
+            wait(sim, 500 + n * 71, |_, _| false)?;
+        }
+        sim.log_dx = false;
+        sim.dx = Default::default();
+        let worst = |v: &[u64]| v.iter().copied().max().unwrap_or(0);
+        let median = |v: &mut Vec<u64>| {
+            v.sort_unstable();
+            v.get(v.len() / 2).copied().unwrap_or(0)
+        };
+        report.push(format!(
+            "latency PPO{}: out->drive={} us, drive->in={} us",
+            ppo.number(),
+            worst(&to_drive),
+            worst(&to_master)
+        ));
+        report.push(format!(
+            "  (worst of {} changes each; medians {} us and {} us; drive->in up to the adapter's input image: worst {} us, median {} us, the rest is the master's poll; seed 000 states {} for its card, target a fifth: {} us)",
+            to_drive.len(),
+            median(&mut to_drive.clone()),
+            median(&mut to_master.clone()),
+            worst(&to_adapter),
+            median(&mut to_adapter.clone()),
+            SEED_000_LATENCY[ppo.number() as usize - 1].0,
+            SEED_000_LATENCY[ppo.number() as usize - 1].1,
+        ));
+        check(c, format!("PPO{}: every change traced both ways", ppo.number()), to_drive.len() == 20 && to_master.len() == 20);
+    }
+    Ok(report)
+}
+
+/// Seed 000's latency per PPO (its words) and a fifth of it in microseconds.
+const SEED_000_LATENCY: [(&str, u64); 5] = [
+    ("<= 3 ms", 600),
+    ("<= 4 ms", 800),
+    ("< 2 ms", 400),
+    ("<= 2 ms", 400),
+    ("<= 7 ms", 1400),
+];

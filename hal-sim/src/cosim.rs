@@ -23,13 +23,13 @@ use dp_link::{Leds, NvRecord, SlaveState, Status, ToAdapter};
 use dp_phy::bus::{Bus, FaultInjector};
 use dp_phy::delimiter::Status as TelegramStatus;
 use dp_phy::{BaudState, BitTiming, Tick, Transceiver};
-use profirust::dp::{DpMaster, Peripheral, PeripheralHandle, PeripheralOptions};
-use profirust::fdl::{FdlActiveStation, ParametersBuilder};
 use profidrive::codes::FunctionCode;
 use profidrive::drive::PZD1_LINK_ERROR;
 use profidrive::ppo::Ppo;
 use profidrive::prm::UserPrm;
 use profidrive::words::control;
+use profirust::dp::{DpMaster, Peripheral, PeripheralHandle, PeripheralOptions};
+use profirust::fdl::{FdlActiveStation, ParametersBuilder};
 use std::io;
 
 /// The transceiver's sample clock.
@@ -87,7 +87,8 @@ pub enum Program {
 }
 
 /// The control word the echo program runs the drive with.
-pub const ECHO_CONTROL_WORD: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
+pub const ECHO_CONTROL_WORD: u16 =
+    control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
 
 /// The profirust master: its FDL station and DP application, over its PHY.
 pub struct Master {
@@ -200,7 +201,9 @@ impl Master {
                     let word = |b: &[u8], at: usize| u16::from_be_bytes([b[at], b[at + 1]]);
                     let (status, pzd2) = (word(&self.inputs, 8), word(&self.inputs, 10));
                     if self.cycles > 1 {
-                        if status & 0xFF00 == PZD1_LINK_ERROR || !(pzd2 == 0 || self.sent.contains(&pzd2)) {
+                        if status & 0xFF00 == PZD1_LINK_ERROR
+                            || !(pzd2 == 0 || self.sent.contains(&pzd2))
+                        {
                             self.inputs_wrong += 1;
                         } else if pzd2 != 0 {
                             self.inputs_checked += 1;
@@ -420,7 +423,10 @@ impl<F: Firmware> CoSim<F> {
     /// Takes a reply handed over at `t_us`: its status, and the bytes it sent to the drive.
     fn apply(&mut self, reply: &Reply, t_us: u64) -> io::Result<()> {
         self.apply_status(reply);
-        let sent = reply.status.drive_tx_bytes.wrapping_sub(self.drive.received);
+        let sent = reply
+            .status
+            .drive_tx_bytes
+            .wrapping_sub(self.drive.received);
         if sent > 0 {
             let bytes = self.firmware.drive_receive(sent as usize)?;
             self.drive.from_firmware(t_us, &bytes);

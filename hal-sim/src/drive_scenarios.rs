@@ -49,7 +49,11 @@ fn start<F: Firmware>(sim: &mut CoSim<F>, setup: MasterSetup) -> io::Result<bool
         m.program = Program::Manual;
     }
     let end = sim.now + 500_000 * TICKS_PER_US;
-    sim.run_until(end, |s| s.master.as_mut().is_some_and(|m| m.running() && m.cycles > 2))
+    sim.run_until(end, |s| {
+        s.master
+            .as_mut()
+            .is_some_and(|m| m.running() && m.cycles > 2)
+    })
 }
 
 fn words(bytes: &[u8]) -> Vec<u16> {
@@ -104,7 +108,11 @@ fn wait_diag<F: Firmware>(sim: &mut CoSim<F>, limit_us: u64, flag: u8) -> io::Re
 
 /// Sends one parameter request (the PKW words) with the PZD words `pzd`, first clearing the
 /// channel with an empty request; returns the reply words, or `None` if none came in 200 ms.
-fn pkw<F: Firmware>(sim: &mut CoSim<F>, request: [u16; 4], pzd: &[u16]) -> io::Result<Option<Vec<u16>>> {
+fn pkw<F: Firmware>(
+    sim: &mut CoSim<F>,
+    request: [u16; 4],
+    pzd: &[u16],
+) -> io::Result<Option<Vec<u16>>> {
     let mut out = vec![0u16; 4];
     out.extend_from_slice(pzd);
     put(sim, &out);
@@ -140,32 +148,74 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     // PKW: ramps of 1.0 s (F0.13, F0.14 in 0.1 s), read back; then the error paths.
     let idle = [control::REMOTE, 0];
     let r = pkw(sim, vendor_request(Task::Write, ACCEL_TIME, 10), &idle)?;
-    check(c, "PKW write F0.13 = 10: reply 1 with the value", vendor_reply(&r) == Some((REPLY_VALUE, 10)));
+    check(
+        c,
+        "PKW write F0.13 = 10: reply 1 with the value",
+        vendor_reply(&r) == Some((REPLY_VALUE, 10)),
+    );
     let r = pkw(sim, vendor_request(Task::Write, DECEL_TIME, 10), &idle)?;
-    check(c, "PKW write F0.14 = 10: reply 1", vendor_reply(&r) == Some((REPLY_VALUE, 10)));
+    check(
+        c,
+        "PKW write F0.14 = 10: reply 1",
+        vendor_reply(&r) == Some((REPLY_VALUE, 10)),
+    );
     let held = sim.drive_now().read_register(ACCEL_TIME) == Ok(10)
         && sim.drive_now().read_register(DECEL_TIME) == Ok(10);
     check(c, "the drive holds F0.13 = F0.14 = 10", held);
     let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &idle)?;
-    check(c, "PKW read F0.13: reply 1, 10", vendor_reply(&r) == Some((REPLY_VALUE, 10)));
+    check(
+        c,
+        "PKW read F0.13: reply 1, 10",
+        vendor_reply(&r) == Some((REPLY_VALUE, 10)),
+    );
     let r = pkw(sim, vendor_request(Task::Read, 0xF058, 0), &idle)?;
-    check(c, "PKW read F0.58 (no such parameter): reply 7, 0x02 illegal address", vendor_reply(&r) == Some((REPLY_REFUSED, 0x02)));
+    check(
+        c,
+        "PKW read F0.58 (no such parameter): reply 7, 0x02 illegal address",
+        vendor_reply(&r) == Some((REPLY_REFUSED, 0x02)),
+    );
     let r = pkw(sim, vendor_request(Task::Write, 0xD000, 1), &idle)?;
-    check(c, "PKW write D0.00 (a status value): reply 7, 0x11 access restricted", vendor_reply(&r) == Some((REPLY_REFUSED, 0x11)));
+    check(
+        c,
+        "PKW write D0.00 (a status value): reply 7, 0x11 access restricted",
+        vendor_reply(&r) == Some((REPLY_REFUSED, 0x11)),
+    );
     let r = pkw(sim, vendor_request(Task::Write, SET_FREQUENCY, 9000), &idle)?;
-    check(c, "PKW write F0.29 above F0.10: reply 7, 0x03 invalid data", vendor_reply(&r) == Some((REPLY_REFUSED, 0x03)));
-    let r = pkw(sim, vendor_request(Task::Unknown(5), SET_FREQUENCY, 0), &idle)?;
-    check(c, "PKW task 5: reply 7, 0x01 illegal operation", vendor_reply(&r) == Some((REPLY_REFUSED, 0x01)));
+    check(
+        c,
+        "PKW write F0.29 above F0.10: reply 7, 0x03 invalid data",
+        vendor_reply(&r) == Some((REPLY_REFUSED, 0x03)),
+    );
+    let r = pkw(
+        sim,
+        vendor_request(Task::Unknown(5), SET_FREQUENCY, 0),
+        &idle,
+    )?;
+    check(
+        c,
+        "PKW task 5: reply 7, 0x01 illegal operation",
+        vendor_reply(&r) == Some((REPLY_REFUSED, 0x01)),
+    );
 
     // Run at 25.00 Hz: the ramp of 1.0 s to 50.00 Hz gets there in 0.5 s.
     let mut out = vec![0, 0, 0, 0, START, 2500];
     put(sim, &out);
-    let accelerating = wait(sim, 100_000, |i, _| i[4] & status::ACCELERATING != 0 && i[5] > 0)?;
-    check(c, "run: status word accelerating, output frequency rising", accelerating);
+    let accelerating = wait(sim, 100_000, |i, _| {
+        i[4] & status::ACCELERATING != 0 && i[5] > 0
+    })?;
+    check(
+        c,
+        "run: status word accelerating, output frequency rising",
+        accelerating,
+    );
     let at_setpoint = wait(sim, 700_000, |i, d| {
         i[4] & status::AT_SETPOINT != 0 && i[5] == 2500 && d.output_frequency() == 2500
     })?;
-    check(c, "run: at setpoint 25.00 Hz within the ramp time (PZD2 in = D0.00)", at_setpoint);
+    check(
+        c,
+        "run: at setpoint 25.00 Hz within the ramp time (PZD2 in = D0.00)",
+        at_setpoint,
+    );
     out[4] = START | control::REVERSE;
     put(sim, &out);
     let reversed = wait(sim, 1_500_000, |i, d| {
@@ -175,10 +225,16 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     out[4] = START | control::QUICK_STOP;
     put(sim, &out);
     let t0 = sim.now_us();
-    let stopped = wait(sim, 300_000, |i, _| i[4] & status::ZERO_SPEED != 0 && i[5] == 0)?;
+    let stopped = wait(sim, 300_000, |i, _| {
+        i[4] & status::ZERO_SPEED != 0 && i[5] == 0
+    })?;
     let quick_ms = (sim.now_us() - t0) / 1000;
     // From 25.00 Hz at a tenth of the 1.0 s deceleration: 50 ms, plus the link's delay.
-    check(c, format!("quick stop: zero speed in {quick_ms} ms (< 100)"), stopped && quick_ms < 100);
+    check(
+        c,
+        format!("quick stop: zero speed in {quick_ms} ms (< 100)"),
+        stopped && quick_ms < 100,
+    );
     out[4] = START;
     put(sim, &out);
     wait(sim, 700_000, |i, _| i[4] & status::AT_SETPOINT != 0)?;
@@ -186,7 +242,11 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     put(sim, &out);
     let t0 = sim.now_us();
     let coasted = wait(sim, 100_000, |i, _| i[5] == 0)?;
-    check(c, format!("coast stop: output off at once ({} us)", sim.now_us() - t0), coasted && sim.now_us() - t0 < 5_000);
+    check(
+        c,
+        format!("coast stop: output off at once ({} us)", sim.now_us() - t0),
+        coasted && sim.now_us() - t0 < 5_000,
+    );
 
     // A drive fault: status word, DE.00 through PKW, the diagnosis; the fault reset.
     out[4] = START;
@@ -195,12 +255,23 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     let faulted = wait(sim, 50_000, |i, _| i[4] & status::FAULT != 0)?;
     check(c, "Fu.012: the status word shows the fault", faulted);
     let r = pkw(sim, vendor_request(Task::Read, 0xDE00, 0), &out[4..])?;
-    check(c, "PKW read DE.00: 0x8C (Fu.012)", vendor_reply(&r) == Some((REPLY_VALUE, 0x8C)));
+    check(
+        c,
+        "PKW read DE.00: 0x8C (Fu.012)",
+        vendor_reply(&r) == Some((REPLY_VALUE, 0x8C)),
+    );
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
-    check(c, format!("the diagnosis shows the drive fault ({diag:02X?})"), diag.get(1).is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0));
+    check(
+        c,
+        format!("the diagnosis shows the drive fault ({diag:02X?})"),
+        diag.get(1)
+            .is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0),
+    );
     out[4] = START | control::FAULT_RESET;
     put(sim, &out);
-    let reset = wait(sim, 50_000, |i, d| i[4] & status::FAULT == 0 && d.fault().is_none())?;
+    let reset = wait(sim, 50_000, |i, d| {
+        i[4] & status::FAULT == 0 && d.fault().is_none()
+    })?;
     check(c, "fault reset (control bit 15): fault cleared", reset);
     out[4] = START;
     put(sim, &out);
@@ -210,34 +281,66 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     let lost = wait(sim, 50_000, |i, _| i[4] == 0xC022)?;
     check(c, "cable out: PZD1 = 0xC022 (no answer) within 50 ms", lost);
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY)?;
-    check(c, format!("the diagnosis: drive link lost ({diag:02X?})"), diag.get(1).is_some_and(|f| f & profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY != 0));
+    check(
+        c,
+        format!("the diagnosis: drive link lost ({diag:02X?})"),
+        diag.get(1)
+            .is_some_and(|f| f & profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY != 0),
+    );
     let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &out[4..])?;
-    check(c, "PKW to a drive that does not answer: reply 7, 0x22", vendor_reply(&r) == Some((REPLY_REFUSED, 0x22)));
+    check(
+        c,
+        "PKW to a drive that does not answer: reply 7, 0x22",
+        vendor_reply(&r) == Some((REPLY_REFUSED, 0x22)),
+    );
     sim.drive_now().link_fault = LinkFault::CrcError;
     let crc = wait(sim, 50_000, |i, _| i[4] == 0xC023)?;
     check(c, "answers with a bad CRC: PZD1 = 0xC023", crc);
     sim.drive_now().link_fault = LinkFault::None;
-    let back = wait(sim, 50_000, |i, _| i[4] & 0xFF00 != 0xC000 && i[4] & status::RUNNING != 0)?;
-    check(c, "cable back: the status word again, the drive running", back);
+    let back = wait(sim, 50_000, |i, _| {
+        i[4] & 0xFF00 != 0xC000 && i[4] & status::RUNNING != 0
+    })?;
+    check(
+        c,
+        "cable back: the status word again, the drive running",
+        back,
+    );
 
     // Another mapping through the user parameters: PZD2 in from D0.04 (output current).
     let mut prm = UserPrm::DEFAULT;
     prm.rd_pzd[0] = FunctionCode(OUTPUT_CURRENT);
     let ok = start(sim, setup(Ppo::Ppo1, prm))?;
     put(sim, &out);
-    let remapped = ok && wait(sim, 700_000, |i, d| i[5] != 0 && i[5] == d.output_frequency() / 10 && d.output_frequency() == 2500)?;
+    let remapped = ok
+        && wait(sim, 700_000, |i, d| {
+            i[5] != 0 && i[5] == d.output_frequency() / 10 && d.output_frequency() == 2500
+        })?;
     check(c, "RdPZD2 = D0.04: PZD2 in is the output current", remapped);
     Ok(())
 }
 
 fn pd_request(label: u8, pnu: u16, index: u8, value: u32) -> [u16; 4] {
-    let w = words(&Frame { label, pnu, index, value }.encode());
+    let w = words(
+        &Frame {
+            label,
+            pnu,
+            index,
+            value,
+        }
+        .encode(),
+    );
     [w[0], w[1], w[2], w[3]]
 }
 
 fn pd_reply(reply: &Option<Vec<u16>>) -> Option<(u8, u32)> {
     reply.as_ref().map(|r| {
-        let frame = Frame::decode(&r.iter().flat_map(|w| w.to_be_bytes()).collect::<Vec<_>>().try_into().unwrap());
+        let frame = Frame::decode(
+            &r.iter()
+                .flat_map(|w| w.to_be_bytes())
+                .collect::<Vec<_>>()
+                .try_into()
+                .unwrap(),
+        );
         (frame.label, frame.value)
     })
 }
@@ -259,34 +362,77 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
     check(c, "READY (0x047E): status word ready to switch on", ready);
     // Drive parameters 113/114 (F0.13/F0.14): ramps of 1.0 s.
     for pnu_number in [113u16, 114] {
-        let r = pkw(sim, pd_request(rq::WRITE_WORD, pnu_number >> 8, pnu_number as u8, 10), &out[4..])?;
-        check(c, format!("PKW write drive parameter {pnu_number} = 10: accepted"), pd_reply(&r).is_some_and(|(l, v)| l == response::ARRAY_WORD && v == 10));
+        let r = pkw(
+            sim,
+            pd_request(rq::WRITE_WORD, pnu_number >> 8, pnu_number as u8, 10),
+            &out[4..],
+        )?;
+        check(
+            c,
+            format!("PKW write drive parameter {pnu_number} = 10: accepted"),
+            pd_reply(&r).is_some_and(|(l, v)| l == response::ARRAY_WORD && v == 10),
+        );
     }
-    let r = pkw(sim, pd_request(rq::READ, 918 , 0, 0), &out[4..])?;
-    check(c, "PKW read 918 (node address): 8", pd_reply(&r) == Some((response::WORD, u32::from(SWITCH_ADDRESS))));
+    let r = pkw(sim, pd_request(rq::READ, 918, 0, 0), &out[4..])?;
+    check(
+        c,
+        "PKW read 918 (node address): 8",
+        pd_reply(&r) == Some((response::WORD, u32::from(SWITCH_ADDRESS))),
+    );
     let r = pkw(sim, pd_request(rq::READ, 999, 0, 0), &out[4..])?;
-    check(c, "PKW read 999 (no such parameter): error 0", pd_reply(&r) == Some((response::ERROR, 0)));
-    let r = pkw(sim, pd_request(rq::WRITE_WORD, 2100 >> 8, 2100u16 as u8, 5), &out[4..])?;
-    check(c, "PKW write drive parameter 2100 (D0.00, a status value): error 1, read only", pd_reply(&r) == Some((response::ERROR, 1)));
+    check(
+        c,
+        "PKW read 999 (no such parameter): error 0",
+        pd_reply(&r) == Some((response::ERROR, 0)),
+    );
+    let r = pkw(
+        sim,
+        pd_request(rq::WRITE_WORD, 2100 >> 8, 2100u16 as u8, 5),
+        &out[4..],
+    )?;
+    check(
+        c,
+        "PKW write drive parameter 2100 (D0.00, a status value): error 1, read only",
+        pd_reply(&r) == Some((response::ERROR, 1)),
+    );
     sim.drive_now().link_fault = LinkFault::NoAnswer;
     let r = pkw(sim, pd_request(rq::READ, 0, 113, 0), &out[4..])?;
-    check(c, "PKW read 113 from a drive that does not answer: error 111, timeout", pd_reply(&r) == Some((response::ERROR, 111)));
+    check(
+        c,
+        "PKW read 113 from a drive that does not answer: error 111, timeout",
+        pd_reply(&r) == Some((response::ERROR, 111)),
+    );
     sim.drive_now().link_fault = LinkFault::None;
     out[4] = pd::OPERATE;
     put(sim, &out);
     let running = wait(sim, 800_000, |i, d| {
         i[4] & pds::AT_SETPOINT != 0 && i[5] == 0x2000 && d.output_frequency() == 2500
     })?;
-    check(c, "OPERATE, reference 0x2000: the drive at 25.00 Hz, actual 0x2000, at setpoint", running);
+    check(
+        c,
+        "OPERATE, reference 0x2000: the drive at 25.00 Hz, actual 0x2000, at setpoint",
+        running,
+    );
     out[5] = 0xE000; // -0x2000
     put(sim, &out);
     let reversed = wait(sim, 1_500_000, |i, d| i[5] == 0xE000 && d.reverse())?;
-    check(c, "reference -0x2000: reverse at 25.00 Hz, actual -0x2000", reversed);
+    check(
+        c,
+        "reference -0x2000: reverse at 25.00 Hz, actual -0x2000",
+        reversed,
+    );
     out[4] = pd::OPERATE & !pd::NO_OFF3;
     put(sim, &out);
     let t0 = sim.now_us();
     let off3 = wait(sim, 300_000, |i, d| i[5] == 0 && d.output_frequency() == 0)?;
-    check(c, format!("OFF3 (quick stop): zero speed in {} ms", (sim.now_us() - t0) / 1000), off3 && sim.now_us() - t0 < 100_000);
+    check(
+        c,
+        format!(
+            "OFF3 (quick stop): zero speed in {} ms",
+            (sim.now_us() - t0) / 1000
+        ),
+        off3 && sim.now_us() - t0 < 100_000,
+    );
     out = vec![0, 0, 0, 0, pd::READY, 0x2000];
     put(sim, &out);
     wait(sim, 50_000, |i, _| i[4] & pds::RDY_ON != 0)?;
@@ -307,12 +453,23 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
     let tripped = wait(sim, 50_000, |i, _| i[4] & pds::TRIPPED != 0)?;
     check(c, "Fu.012: status word bit 3 (fault)", tripped);
     let r = pkw(sim, pd_request(rq::READ_ARRAY, 945, 1, 0), &out[4..])?;
-    check(c, "PKW read 945[1] (fault code): 12", pd_reply(&r) == Some((response::ARRAY_WORD, 12)));
+    check(
+        c,
+        "PKW read 945[1] (fault code): 12",
+        pd_reply(&r) == Some((response::ARRAY_WORD, 12)),
+    );
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
-    check(c, format!("the diagnosis shows the drive fault ({diag:02X?})"), diag.get(1).is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0));
+    check(
+        c,
+        format!("the diagnosis shows the drive fault ({diag:02X?})"),
+        diag.get(1)
+            .is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0),
+    );
     out[4] = pd::READY | pd::RESET;
     put(sim, &out);
-    let acknowledged = wait(sim, 50_000, |i, d| i[4] & pds::TRIPPED == 0 && d.fault().is_none())?;
+    let acknowledged = wait(sim, 50_000, |i, d| {
+        i[4] & pds::TRIPPED == 0 && d.fault().is_none()
+    })?;
     check(c, "fault acknowledge (bit 7): fault cleared", acknowledged);
     Ok(())
 }
@@ -350,7 +507,11 @@ pub fn fail_safe_modes<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::R
         pzd[1] = 1234;
         pzd
     };
-    for mode in [FailSafeMode::Stop, FailSafeMode::LastSpeed, FailSafeMode::UseFailSafeValues] {
+    for mode in [
+        FailSafeMode::Stop,
+        FailSafeMode::LastSpeed,
+        FailSafeMode::UseFailSafeValues,
+    ] {
         for cause in ["PLC stop", "communication loss"] {
             let prm = UserPrm {
                 fail_safe: mode,
@@ -360,8 +521,15 @@ pub fn fail_safe_modes<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::R
             let setup = setup(Ppo::Ppo3, prm);
             let ok = start(sim, setup.clone())?;
             put(sim, &[START, 3000]);
-            let running = ok && wait(sim, 100_000, |_, d| d.control_word() == START && d.read_register(SET_FREQUENCY) == Ok(3000))?;
-            check(c, format!("{mode:?}, {cause}: the drive runs at 30.00 Hz first"), running);
+            let running = ok
+                && wait(sim, 100_000, |_, d| {
+                    d.control_word() == START && d.read_register(SET_FREQUENCY) == Ok(3000)
+                })?;
+            check(
+                c,
+                format!("{mode:?}, {cause}: the drive runs at 30.00 Hz first"),
+                running,
+            );
             if cause == "PLC stop" {
                 plc_stop(sim, &setup)?;
             } else {
@@ -370,13 +538,23 @@ pub fn fail_safe_modes<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::R
             }
             sim.run_for_us(if cause == "PLC stop" { 20_000 } else { 250_000 })?;
             let d = sim.drive_now();
-            let (cw, f) = (d.control_word(), d.read_register(SET_FREQUENCY).unwrap_or(0));
+            let (cw, f) = (
+                d.control_word(),
+                d.read_register(SET_FREQUENCY).unwrap_or(0),
+            );
             let (want, ok) = match mode {
                 FailSafeMode::Stop => ("run bit off", cw & control::RUN == 0),
                 FailSafeMode::LastSpeed => ("run at 30.00 Hz", cw == START && f == 3000),
-                FailSafeMode::UseFailSafeValues => ("the fail-safe PZD: run at 12.34 Hz", cw == START && f == 1234),
+                FailSafeMode::UseFailSafeValues => (
+                    "the fail-safe PZD: run at 12.34 Hz",
+                    cw == START && f == 1234,
+                ),
             };
-            check(c, format!("{mode:?}, {cause}: the drive gets {want} (CW {cw:04X}, F0.29 {f})"), ok);
+            check(
+                c,
+                format!("{mode:?}, {cause}: the drive gets {want} (CW {cw:04X}, F0.29 {f})"),
+                ok,
+            );
         }
     }
     Ok(())
@@ -406,7 +584,9 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
             put(sim, &out);
             let outputs_before = sim.dx.outputs.len();
             let applied_before = sim.drive.applied.len();
-            wait(sim, 50_000, |_, d| d.read_register(SET_FREQUENCY) == Ok(value))?;
+            wait(sim, 50_000, |_, d| {
+                d.read_register(SET_FREQUENCY) == Ok(value)
+            })?;
             let arrived = sim.dx.outputs[outputs_before..]
                 .iter()
                 .find(|(_, o)| words(o).get(pkw_words + 1) == Some(&value))
@@ -417,7 +597,11 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
                 .map(|a| a.at_us);
             match (arrived, applied) {
                 (Some(a), Some(b)) if b >= a => to_drive.push(b - a),
-                _ => check(c, format!("PPO{}: output {value} traced to the drive", ppo.number()), false),
+                _ => check(
+                    c,
+                    format!("PPO{}: output {value} traced to the drive", ppo.number()),
+                    false,
+                ),
             }
             // Inputs: a warning on and off flips the status word's bit 14.
             wait(sim, 1_000 + n * 137, |_, _| false)?;
@@ -426,21 +610,35 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
             let inputs_before = sim.dx.inputs.len();
             let answered_before = sim.drive.answered.len();
             sim.drive_now().set_warning(warn.then_some(36));
-            wait(sim, 50_000, |i, _| (i[pkw_words] & status::WARNING != 0) == warn)?;
+            wait(sim, 50_000, |i, _| {
+                (i[pkw_words] & status::WARNING != 0) == warn
+            })?;
             let seen = sim.dx.inputs[inputs_before..]
                 .iter()
-                .find(|(_, i)| words(i).get(pkw_words).is_some_and(|sw| (sw & status::WARNING != 0) == warn))
+                .find(|(_, i)| {
+                    words(i)
+                        .get(pkw_words)
+                        .is_some_and(|sw| (sw & status::WARNING != 0) == warn)
+                })
                 .map(|(t, _)| *t);
             let at_adapter = sim.drive.answered[answered_before..]
                 .iter()
-                .find(|a| a.words.first().is_some_and(|sw| (sw & status::WARNING != 0) == warn))
+                .find(|a| {
+                    a.words
+                        .first()
+                        .is_some_and(|sw| (sw & status::WARNING != 0) == warn)
+                })
                 .map(|a| a.at_us);
             if let Some(t) = at_adapter {
                 to_adapter.push(t - changed_at);
             }
             match seen {
                 Some(t) => to_master.push(t - changed_at),
-                None => check(c, format!("PPO{}: status change traced to the master", ppo.number()), false),
+                None => check(
+                    c,
+                    format!("PPO{}: status change traced to the master", ppo.number()),
+                    false,
+                ),
             }
             wait(sim, 500 + n * 71, |_, _| false)?;
         }
@@ -467,7 +665,11 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
             SEED_000_LATENCY[ppo.number() as usize - 1].0,
             SEED_000_LATENCY[ppo.number() as usize - 1].1,
         ));
-        check(c, format!("PPO{}: every change traced both ways", ppo.number()), to_drive.len() == 20 && to_master.len() == 20);
+        check(
+            c,
+            format!("PPO{}: every change traced both ways", ppo.number()),
+            to_drive.len() == 20 && to_master.len() == 20,
+        );
     }
     Ok(report)
 }

@@ -418,9 +418,9 @@ impl Firmware for Qemu {
 
     fn drive_receive(&mut self, n: usize) -> io::Result<Vec<u8>> {
         let mut bytes = vec![0u8; n];
-        self.drive.read_exact(&mut bytes).map_err(|e| {
-            io::Error::new(e.kind(), format!("{n} bytes from the drive UART: {e}"))
-        })?;
+        self.drive
+            .read_exact(&mut bytes)
+            .map_err(|e| io::Error::new(e.kind(), format!("{n} bytes from the drive UART: {e}")))?;
         Ok(bytes)
     }
 }

@@ -17,3 +17,4 @@ pub mod drive_wire;
 pub mod firmware;
 pub mod master;
 pub mod scenario;
+pub mod serial;

@@ -364,7 +364,11 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
         "the firmware never got a malformed telegram",
         sim.status.malformed_telegrams == 0,
     );
-    if let Some(m) = sim.master.as_ref().filter(|m| m.program == Program::EchoThroughDrive) {
+    if let Some(m) = sim
+        .master
+        .as_ref()
+        .filter(|m| m.program == Program::EchoThroughDrive)
+    {
         c.check(
             "inputs carried PZD2 back through the drive, never a value not sent",
             (m.cycles < 20 || m.inputs_checked > 0) && m.inputs_wrong == 0,

@@ -4,12 +4,15 @@
 //!   start phase, from power-up and after a rate change); CSV and SVG under `target/baud-sweep/`.
 //! - `phy-bench [--runs N]`: the transceiver model's speed, strict and fast mode.
 //! - `gsd [--out PATH]`: the adapter's GSD file, from the constants the firmware uses.
+//! - `qemu-run [--port pty|DEVICE] [--baud N] [--switch N] [--seconds N]`: the adapter
+//!   interactively, on the simulated bus or on a serial port for an external master.
 //! - `qemu-test [--only NAME] [--overwrite]`: the firmware under QEMU against hal-sim,
 //!   scenario by scenario, with golden files in `ci/expected/qemu-test/`.
 
 mod baud_sweep;
 mod gsd;
 mod phy_bench;
+mod qemu_run;
 mod qemu_test;
 
 use anyhow::{bail, Result};
@@ -25,14 +28,15 @@ fn main() {
 fn try_main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some((task, rest)) = args.split_first() else {
-        bail!("usage: cargo xtask <qemu-test|baud-sweep|phy-bench|gsd> [options]");
+        bail!("usage: cargo xtask <qemu-test|qemu-run|baud-sweep|phy-bench|gsd> [options]");
     };
     match task.as_str() {
         "baud-sweep" => baud_sweep::run(rest),
         "phy-bench" => phy_bench::run(rest),
         "gsd" => gsd::run(rest),
         "qemu-test" => qemu_test::run(rest),
-        other => bail!("unknown task `{other}`: qemu-test, baud-sweep, phy-bench or gsd"),
+        "qemu-run" => qemu_run::run(rest),
+        other => bail!("unknown task `{other}`: qemu-test, qemu-run, baud-sweep, phy-bench or gsd"),
     }
 }
 

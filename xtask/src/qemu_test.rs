@@ -26,14 +26,14 @@ const SELFTESTS: [(&str, &str); 2] = [
 ];
 
 /// One firmware image: the board, its feature, its limits.
-struct Image {
+pub(crate) struct Image {
     board: &'static str,
     features: &'static [&'static str],
     flash_limit: u64,
     ram_limit: u64,
 }
 
-const IMAGES: [Image; 2] = [
+pub(crate) const IMAGES: [Image; 2] = [
     Image {
         board: "lm3s6965",
         features: &[],
@@ -321,7 +321,7 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
     );
 }
 
-fn ensure_target() -> Result<()> {
+pub(crate) fn ensure_target() -> Result<()> {
     let out = Command::new("rustup")
         .args(["target", "list", "--installed"])
         .output()
@@ -350,7 +350,7 @@ fn find_in_path(program: &str) -> Option<PathBuf> {
     })
 }
 
-fn ensure_qemu() -> Result<PathBuf> {
+pub(crate) fn ensure_qemu() -> Result<PathBuf> {
     if let Some(path) = find_in_path("qemu-system-arm") {
         return Ok(path);
     }
@@ -380,7 +380,7 @@ fn ensure_qemu() -> Result<PathBuf> {
 }
 
 /// Builds one board's image in its own target directory; returns the ELF.
-fn build(image: &Image) -> Result<PathBuf> {
+pub(crate) fn build(image: &Image) -> Result<PathBuf> {
     build_with(image, &[])
 }
 

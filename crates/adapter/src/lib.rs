@@ -353,7 +353,10 @@ impl<A: Application + Background> Adapter<A> {
             min_tsdr_bits: self.slave.min_tsdr_bits(),
             leds: self.leds(),
             nv_write,
-            poll_at_us: match (self.slave.poll_at().map(Instant::micros), self.background_at) {
+            poll_at_us: match (
+                self.slave.poll_at().map(Instant::micros),
+                self.background_at,
+            ) {
                 (Some(a), Some(b)) => Some(a.min(b)),
                 (a, b) => a.or(b),
             },

@@ -333,23 +333,29 @@ mod tests {
     #[test]
     fn garbage_between_frames_is_dropped_and_the_next_frame_decodes() {
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(&ToAdapter::Tick {
+        let frame = encode(
+            &ToAdapter::Tick {
                 seq: 5,
                 now_us: 6,
                 drive_rx_bytes: 7,
-            }, &mut buf)
-            .unwrap()
-            .to_vec();
+            },
+            &mut buf,
+        )
+        .unwrap()
+        .to_vec();
         let mut stream = vec![0xFF, 0x13, 0x00];
         stream.extend_from_slice(&frame);
         let (got, dropped) = decode_all!(ToAdapter, &stream);
         assert_eq!(
             got,
-            [format!("{:?}", ToAdapter::Tick {
-                seq: 5,
-                now_us: 6,
-                drive_rx_bytes: 7,
-            })]
+            [format!(
+                "{:?}",
+                ToAdapter::Tick {
+                    seq: 5,
+                    now_us: 6,
+                    drive_rx_bytes: 7,
+                }
+            )]
         );
         assert_eq!(dropped, 1);
     }

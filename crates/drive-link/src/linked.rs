@@ -18,7 +18,9 @@
 //!   communication alarm stays quiet.
 //! - Link errors (no answer, CRC, noise) hold until the next transaction succeeds.
 
-use crate::{ModbusMaster, Op, Outcome, CONTROL_WORD_REGISTER, MAX_PZD_WORDS, STATUS_WORD_REGISTER};
+use crate::{
+    ModbusMaster, Op, Outcome, CONTROL_WORD_REGISTER, MAX_PZD_WORDS, STATUS_WORD_REGISTER,
+};
 use crate::{PZD_IN_MAP, PZD_OUT_MAP};
 use embedded_hal_nb::serial::{Read, Write};
 use heapless09::{Deque, Vec};
@@ -39,7 +41,9 @@ enum Job {
     Request(Op),
     /// Writes mapping register: `(out, slot)`, slot 0 is PZD2.
     Map(bool, usize),
-    Cycle { words: usize },
+    Cycle {
+        words: usize,
+    },
     KeepAlive,
 }
 
@@ -241,7 +245,8 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             return *result;
         }
         self.deferred = true;
-        let under_way = self.job == Some(Job::Request(op)) || self.requests.iter().any(|o| *o == op);
+        let under_way =
+            self.job == Some(Job::Request(op)) || self.requests.iter().any(|o| *o == op);
         if !under_way && self.requests.push_back(op).is_err() {
             // More distinct requests than a parameter channel makes: refuse, do not wait.
             self.deferred = false;

@@ -278,7 +278,14 @@ mod linked {
 
     /// One data exchange with PPO1 outputs (PKW request, CW, PZD2), then `polls` turns of
     /// the link 100 µs apart; returns the inputs of a data exchange after them.
-    fn exchange(app: &mut App, now: &mut u64, pkw: [u8; 8], cw: u16, pzd2: u16, polls: u32) -> Vec<u8> {
+    fn exchange(
+        app: &mut App,
+        now: &mut u64,
+        pkw: [u8; 8],
+        cw: u16,
+        pzd2: u16,
+        polls: u32,
+    ) -> Vec<u8> {
         let mut outputs = pkw.to_vec();
         outputs.extend_from_slice(&cw.to_be_bytes());
         outputs.extend_from_slice(&pzd2.to_be_bytes());
@@ -315,10 +322,17 @@ mod linked {
         assert_eq!(sim(&mut app).control_word(), START);
         assert_eq!(sim(&mut app).read_register(0xF029), Ok(2500));
         let inputs = exchange(&mut app, &mut now, read_f029, START, 2500, 0);
-        assert_eq!(word(&inputs, 0), 0, "no PKW reply before the drive answered");
+        assert_eq!(
+            word(&inputs, 0),
+            0,
+            "no PKW reply before the drive answered"
+        );
         let inputs = exchange(&mut app, &mut now, read_f029, START, 2500, 2);
         // The PKW read was queued and answered on a later service: reply 1, F0.29's value.
-        assert_eq!(&inputs[..8], &[0x10, 0xF0, 0x29, 0x00, 0x00, 0x00, 0x09, 0xC4]);
+        assert_eq!(
+            &inputs[..8],
+            &[0x10, 0xF0, 0x29, 0x00, 0x00, 0x00, 0x09, 0xC4]
+        );
         assert_eq!(word(&inputs, 8) & status::RUNNING, status::RUNNING);
         // 1 s later, the output frequency (RdPZD2 = D0.00) follows the 5 s ramp to 25.00 Hz.
         let inputs = exchange(&mut app, &mut now, read_f029, START, 2500, 10_000);

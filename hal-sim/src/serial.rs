@@ -1,0 +1,187 @@
+//! The adapter on a serial port, for external masters (`cargo xtask qemu-run --port ..`).
+//!
+//! Contract: a byte stream from a PC master or a PLC behind a USB-RS485 converter has no bit
+//! timing, so telegrams are delimited by their start delimiter and length (SD1 6 bytes, SD2
+//! LE + 6, SD3 14, SD4 3, SC 1); a byte that starts none is skipped. Telegrams for the
+//! adapter's address (or broadcast) go to the firmware as the transceiver would hand them
+//! over; the response, if any, is returned for the port. Time is the caller's (wall-clock
+//! microseconds): the DP watchdog and the drive link run on it, the drive link through the
+//! same [`DriveWire`] as in the simulator.
+
+use crate::drive_wire::DriveWire;
+use crate::firmware::{Firmware, Reply};
+use dp_link::{Status, ToAdapter};
+use std::io;
+
+/// The length of the telegram `bytes` starts with, once known; `Err(())`: not a telegram start.
+pub fn telegram_len(bytes: &[u8]) -> Result<Option<usize>, ()> {
+    match bytes.first() {
+        None => Ok(None),
+        Some(&dp_consts::SD1) => Ok(Some(6)),
+        Some(&dp_consts::SD3) => Ok(Some(14)),
+        Some(&dp_consts::SD4) => Ok(Some(3)),
+        Some(&dp_consts::SC) => Ok(Some(1)),
+        Some(&dp_consts::SD2) => Ok(bytes.get(1).map(|le| usize::from(*le) + 6)),
+        Some(_) => Err(()),
+    }
+}
+
+pub struct SerialAdapter<F: Firmware> {
+    pub firmware: F,
+    pub drive: DriveWire,
+    pub status: Status,
+    /// The rate index reported to the firmware (the port's rate, for 963).
+    pub baud: dp_consts::Baud,
+    seq: u32,
+    pending: Vec<u8>,
+    pub telegrams: u64,
+    pub responses: u64,
+    pub skipped_bytes: u64,
+}
+
+impl<F: Firmware> SerialAdapter<F> {
+    /// Powers the adapter up with the switch at `switch`.
+    pub fn new(mut firmware: F, switch: u8, baud: dp_consts::Baud) -> io::Result<Self> {
+        let reply = firmware.exchange(&ToAdapter::Boot {
+            seq: 1,
+            now_us: 0,
+            switch,
+            nv: None,
+        })?;
+        let mut adapter = SerialAdapter {
+            firmware,
+            drive: DriveWire::default(),
+            status: reply.status,
+            baud,
+            seq: 1,
+            pending: Vec::new(),
+            telegrams: 0,
+            responses: 0,
+            skipped_bytes: 0,
+        };
+        adapter.apply(&reply, 0)?;
+        Ok(adapter)
+    }
+
+    fn apply(&mut self, reply: &Reply, t_us: u64) -> io::Result<()> {
+        self.status = reply.status;
+        let sent = reply
+            .status
+            .drive_tx_bytes
+            .wrapping_sub(self.drive.received);
+        if sent > 0 {
+            let bytes = self.firmware.drive_receive(sent as usize)?;
+            self.drive.from_firmware(t_us, &bytes);
+        }
+        Ok(())
+    }
+
+    /// When [`SerialAdapter::poll`] must run next.
+    pub fn next_event_us(&self) -> Option<u64> {
+        match (self.status.poll_at_us, self.drive.next_delivery_us()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Drive answers and Ticks due at `now_us`.
+    pub fn poll(&mut self, now_us: u64) -> io::Result<()> {
+        while let Some((at, bytes)) = self.drive.take_delivery(now_us) {
+            self.firmware.drive_send(&bytes)?;
+            self.tick(at)?;
+        }
+        if self.status.poll_at_us.is_some_and(|at| at <= now_us) {
+            self.tick(now_us)?;
+        }
+        Ok(())
+    }
+
+    fn tick(&mut self, now_us: u64) -> io::Result<()> {
+        self.seq = self.seq.wrapping_add(1);
+        let reply = self.firmware.exchange(&ToAdapter::Tick {
+            seq: self.seq,
+            now_us,
+            drive_rx_bytes: self.drive.delivered,
+        })?;
+        self.apply(&reply, now_us)
+    }
+
+    /// Bytes from the port at `now_us`; returns what to send back.
+    pub fn on_bytes(&mut self, now_us: u64, bytes: &[u8]) -> io::Result<Vec<u8>> {
+        self.pending.extend_from_slice(bytes);
+        let mut out = Vec::new();
+        loop {
+            let len = match telegram_len(&self.pending) {
+                Err(()) => {
+                    self.pending.remove(0);
+                    self.skipped_bytes += 1;
+                    continue;
+                }
+                Ok(None) => break,
+                Ok(Some(len)) if self.pending.len() < len => break,
+                Ok(Some(len)) => len,
+            };
+            let telegram: Vec<u8> = self.pending.drain(..len).collect();
+            out.extend(self.telegram(now_us, &telegram)?);
+        }
+        Ok(out)
+    }
+
+    fn telegram(&mut self, now_us: u64, bytes: &[u8]) -> io::Result<Vec<u8>> {
+        let ours = match fdl::Telegram::new_checked(bytes) {
+            Ok(view) if view.has_header() => {
+                let da = view.destination();
+                da == self.status.address || da == dp_consts::BROADCAST_ADDRESS
+            }
+            _ => false,
+        };
+        if !ours {
+            return Ok(Vec::new());
+        }
+        self.telegrams += 1;
+        self.seq = self.seq.wrapping_add(1);
+        let reply = self.firmware.exchange(&ToAdapter::Telegram {
+            seq: self.seq,
+            now_us,
+            baud: self.baud.index() as u8,
+            bytes,
+        })?;
+        self.apply(&reply, now_us)?;
+        if !reply.response.is_empty() {
+            self.responses += 1;
+        }
+        Ok(reply.response)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::firmware::InProcess;
+
+    #[test]
+    fn delimited_by_start_delimiter_and_length() {
+        assert_eq!(telegram_len(&[0x10]), Ok(Some(6)));
+        assert_eq!(telegram_len(&[0x68]), Ok(None));
+        assert_eq!(telegram_len(&[0x68, 0x05]), Ok(Some(11)));
+        assert_eq!(telegram_len(&[0xA2]), Ok(Some(14)));
+        assert_eq!(telegram_len(&[0xDC]), Ok(Some(3)));
+        assert_eq!(telegram_len(&[0xE5]), Ok(Some(1)));
+        assert_eq!(telegram_len(&[0x00]), Err(()));
+    }
+
+    #[test]
+    fn an_fdl_status_request_split_across_reads_behind_garbage_is_answered() {
+        let mut adapter = SerialAdapter::new(InProcess::new(), 8, dp_consts::Baud::B19200).unwrap();
+        // PROTOCOL.md: FDL_Status request to station 8 from master 2 (10 08 02 49 53 16).
+        let request = [0x10, 0x08, 0x02, 0x49, 0x53, 0x16];
+        assert!(adapter.on_bytes(10, &[0x00, 0xFF]).unwrap().is_empty());
+        assert!(adapter.on_bytes(20, &request[..3]).unwrap().is_empty());
+        let answer = adapter.on_bytes(30, &request[3..]).unwrap();
+        assert_eq!(answer, [0x10, 0x02, 0x08, 0x00, 0x0A, 0x16]);
+        assert_eq!(adapter.skipped_bytes, 2);
+        // Another station's telegram gets nothing.
+        let other = [0x10, 0x09, 0x02, 0x49, 0x54, 0x16];
+        assert!(adapter.on_bytes(40, &other).unwrap().is_empty());
+    }
+}

@@ -13,8 +13,12 @@ use crate::firmware::{Firmware, Reply};
 use dp_link::{Status, ToAdapter};
 use std::io;
 
-/// The length of the telegram `bytes` starts with, once known; `Err(())`: not a telegram start.
-pub fn telegram_len(bytes: &[u8]) -> Result<Option<usize>, ()> {
+/// A byte that starts no telegram.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NotAStart;
+
+/// The length of the telegram `bytes` starts with, once known.
+pub fn telegram_len(bytes: &[u8]) -> Result<Option<usize>, NotAStart> {
     match bytes.first() {
         None => Ok(None),
         Some(&dp_consts::SD1) => Ok(Some(6)),
@@ -22,7 +26,7 @@ pub fn telegram_len(bytes: &[u8]) -> Result<Option<usize>, ()> {
         Some(&dp_consts::SD4) => Ok(Some(3)),
         Some(&dp_consts::SC) => Ok(Some(1)),
         Some(&dp_consts::SD2) => Ok(bytes.get(1).map(|le| usize::from(*le) + 6)),
-        Some(_) => Err(()),
+        Some(_) => Err(NotAStart),
     }
 }
 
@@ -112,7 +116,7 @@ impl<F: Firmware> SerialAdapter<F> {
         let mut out = Vec::new();
         loop {
             let len = match telegram_len(&self.pending) {
-                Err(()) => {
+                Err(NotAStart) => {
                     self.pending.remove(0);
                     self.skipped_bytes += 1;
                     continue;
@@ -167,7 +171,7 @@ mod tests {
         assert_eq!(telegram_len(&[0xA2]), Ok(Some(14)));
         assert_eq!(telegram_len(&[0xDC]), Ok(Some(3)));
         assert_eq!(telegram_len(&[0xE5]), Ok(Some(1)));
-        assert_eq!(telegram_len(&[0x00]), Err(()));
+        assert_eq!(telegram_len(&[0x00]), Err(NotAStart));
     }
 
     #[test]

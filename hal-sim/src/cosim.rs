@@ -423,15 +423,8 @@ impl<F: Firmware> CoSim<F> {
     /// Takes a reply handed over at `t_us`: its status, and the bytes it sent to the drive.
     fn apply(&mut self, reply: &Reply, t_us: u64) -> io::Result<()> {
         self.apply_status(reply);
-        let sent = reply
-            .status
-            .drive_tx_bytes
-            .wrapping_sub(self.drive.received);
-        if sent > 0 {
-            let bytes = self.firmware.drive_receive(sent as usize)?;
-            self.drive.from_firmware(t_us, &bytes);
-        }
-        Ok(())
+        self.drive
+            .collect(&mut self.firmware, reply.status.drive_tx_bytes, t_us)
     }
 
     /// Hands the drive's answers that are complete to the firmware, each with its Tick.

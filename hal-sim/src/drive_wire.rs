@@ -9,7 +9,9 @@
 //! time. Every duration is 11 bits per character at `drive_link::LINK_BAUD`.
 
 use crate::drive_sim::{request_len, DriveSim};
+use crate::firmware::Firmware;
 use std::collections::VecDeque;
+use std::io;
 
 /// From a request's last bit to the drive's answer starting.
 pub const PROCESSING_US: u64 = 10;
@@ -28,6 +30,14 @@ pub fn frame_us(len: usize) -> u64 {
 /// The silence between frames: 3.5 characters.
 pub fn gap_us() -> u64 {
     chars_us(7)
+}
+
+/// The registers of a block, big-endian as on the line.
+fn block_words(bytes: &[u8]) -> Vec<u16> {
+    bytes
+        .chunks_exact(2)
+        .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        .collect()
 }
 
 /// An out block the drive applied: when, and the words (control word first).
@@ -64,6 +74,22 @@ impl DriveWire {
         }
     }
 
+    /// Reads from `firmware` the bytes it sent beyond those already taken (`sent_total`, from
+    /// a reply's status) and puts them on the line at `t_us`.
+    pub fn collect(
+        &mut self,
+        firmware: &mut impl Firmware,
+        sent_total: u32,
+        t_us: u64,
+    ) -> io::Result<()> {
+        let sent = sent_total.wrapping_sub(self.received);
+        if sent > 0 {
+            let bytes = firmware.drive_receive(sent as usize)?;
+            self.from_firmware(t_us, &bytes);
+        }
+        Ok(())
+    }
+
     /// Bytes the firmware wrote, handed over at `t_us`.
     pub fn from_firmware(&mut self, t_us: u64, bytes: &[u8]) {
         self.received += bytes.len() as u32;
@@ -85,10 +111,7 @@ impl DriveWire {
         self.advance_to(at);
         let answer = self.drive.modbus(request);
         if request.get(1) == Some(&drive_link::READ_WRITE_MULTIPLE) && request.len() >= 13 {
-            let words: Vec<u16> = request[11..request.len() - 2]
-                .chunks_exact(2)
-                .map(|b| u16::from_be_bytes([b[0], b[1]]))
-                .collect();
+            let words = block_words(&request[11..request.len() - 2]);
             if self.applied.last().map(|a| &a.words) != Some(&words) {
                 self.applied.push(Applied { at_us: at, words });
             }
@@ -97,10 +120,7 @@ impl DriveWire {
             self.answers += 1;
             let done = at + frame_us(answer.len());
             if answer.get(1) == Some(&drive_link::READ_WRITE_MULTIPLE) && answer.len() >= 5 {
-                let words: Vec<u16> = answer[3..answer.len() - 2]
-                    .chunks_exact(2)
-                    .map(|b| u16::from_be_bytes([b[0], b[1]]))
-                    .collect();
+                let words = block_words(&answer[3..answer.len() - 2]);
                 if self.answered.last().map(|a| &a.words) != Some(&words) {
                     self.answered.push(Applied { at_us: done, words });
                 }

@@ -69,15 +69,8 @@ impl<F: Firmware> SerialAdapter<F> {
 
     fn apply(&mut self, reply: &Reply, t_us: u64) -> io::Result<()> {
         self.status = reply.status;
-        let sent = reply
-            .status
-            .drive_tx_bytes
-            .wrapping_sub(self.drive.received);
-        if sent > 0 {
-            let bytes = self.firmware.drive_receive(sent as usize)?;
-            self.drive.from_firmware(t_us, &bytes);
-        }
-        Ok(())
+        self.drive
+            .collect(&mut self.firmware, reply.status.drive_tx_bytes, t_us)
     }
 
     /// When [`SerialAdapter::poll`] must run next.

@@ -356,12 +356,8 @@ fn exchange_answer(rx: &[u8], words: usize) -> Result<[u16; MAX_PZD_WORDS], Driv
         return Err(DriveError::BusNoise);
     }
     if body[1] == READ_WRITE_MULTIPLE | 0x80 {
-        return Err(match body[2] {
-            0x01 => DriveError::IllegalOperation,
-            0x02 => DriveError::IllegalAddress,
-            0x03 => DriveError::InvalidData,
-            _ => DriveError::DriveFault,
-        });
+        // The same exception mapping as the functions rmodbus parses.
+        return Err(drive_error(ErrorKind::from_modbus_error(body[2])));
     }
     if body[1] != READ_WRITE_MULTIPLE || usize::from(body[2]) != 2 * words {
         return Err(DriveError::BusNoise);

@@ -1,6 +1,6 @@
 //! The drive scenarios of `cargo xtask qemu-test`: the profirust master drives the simulated
 //! drive through the adapter (PZD and the parameter channel), in both profiles; the fail-safe
-//! modes; and the adapter's latency per PPO.
+//! modes; the drive's fieldbus group 51; and the adapter's latency per PPO.
 //!
 //! Every check reads what the master received or what the drive simulator holds: nothing is
 //! taken from the adapter's own account. The master's outputs and inputs are words here
@@ -13,6 +13,7 @@ use crate::drive_sim::{
 use crate::firmware::Firmware;
 use crate::scenario::SWITCH_ADDRESS;
 use dp_consts::Baud;
+use drive_link::fieldbus::{self, index as fb};
 use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
 use profidrive::codes::FunctionCode;
 use profidrive::pd_params::{request as rq, response, Frame};
@@ -472,6 +473,196 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
     })?;
     check(c, "fault acknowledge (bit 7): fault cleared", acknowledged);
     Ok(())
+}
+
+/// The drive's fieldbus group 51 (seed 004, table 5) in the PROFIdrive profile, PPO2: what the
+/// adapter shows there, a PZD3 mapping set at the drive's panel that takes effect on FBA PAR
+/// REFRESH and not before, a 916 write that lands in the group, a node address the switch
+/// overrules, and, with the switch at 0, a node address that moves the adapter without a
+/// power cycle.
+pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()> {
+    let prm = UserPrm {
+        operation: OperationMode::Profidrive,
+        ..UserPrm::DEFAULT
+    };
+    let ok = start(sim, setup(Ppo::Ppo2, prm))?;
+    check(c, "PPO2, PROFIdrive profile: data exchange", ok);
+    let mut out = vec![0, 0, 0, 0, pd::READY, 0x2000, 0, 0, 0, 0];
+    put(sim, &out);
+    let group = |d: &DriveSim, i: u8| d.read_register(fieldbus::register(i)).unwrap_or(u16::MAX);
+    let shown = wait(sim, 100_000, |_, d| {
+        [1, 2, 3, 4, 21].map(|i| group(d, i)) == [fieldbus::MODULE_TYPE_PROFIBUS_DP, 8, 1500, 2, 0]
+    })?;
+    let d = sim.drive_now();
+    check(
+        c,
+        format!(
+            "51.01-51.04 show PROFIBUS DP, address 8, 1500 kbit/s, PPO2 (drive holds {:?})",
+            [1, 2, 3, 4].map(|i| group(d, i))
+        ),
+        shown,
+    );
+    let refused = sim
+        .drive_now()
+        .set_at_panel(fieldbus::register(fb::PPO_TYPE), 5);
+    check(
+        c,
+        "51.04 is read-only at the drive's panel",
+        refused == Err(profidrive::drive::DriveError::AccessRestricted),
+    );
+
+    // PZD3 OUT -> 113 (F0.13, acceleration time), PZD3 IN <- 2104 (D0.04, output current).
+    let accel_before = sim.drive_now().read_register(ACCEL_TIME);
+    let panel = sim
+        .drive_now()
+        .set_at_panel(fieldbus::register(fb::PZD3_OUT), 113)
+        .and_then(|()| {
+            sim.drive_now()
+                .set_at_panel(fieldbus::register(fb::PZD3_OUT + 1), 2104)
+        });
+    check(c, "panel: 51.05 = 113, 51.06 = 2104", panel.is_ok());
+    out[6] = 30;
+    put(sim, &out);
+    sim.run_for_us(100_000)?;
+    check(
+        c,
+        "not in force before the refresh: F0.13 unchanged",
+        sim.drive_now().read_register(ACCEL_TIME) == accel_before,
+    );
+    let t0 = sim.now_us();
+    let _ = sim
+        .drive_now()
+        .set_at_panel(fieldbus::register(fb::PAR_REFRESH), fieldbus::REFRESH);
+    let refreshed = wait(sim, 1_000_000, |_, d| {
+        d.read_register(ACCEL_TIME) == Ok(30) && group(d, fb::PAR_REFRESH) == fieldbus::DONE
+    })?;
+    check(
+        c,
+        format!(
+            "51.27 REFRESH: PZD3 out reaches F0.13 and 51.27 is DONE in {} ms (poll {} ms)",
+            (sim.now_us() - t0) / 1000,
+            fieldbus::REFRESH_POLL_US / 1000
+        ),
+        refreshed,
+    );
+    let r915 = pkw(sim, pd_request(rq::READ_ARRAY, 915, 3, 0), &out[4..])?;
+    let r916 = pkw(sim, pd_request(rq::READ_ARRAY, 916, 3, 0), &out[4..])?;
+    check(
+        c,
+        "915[3] = 113 and 916[3] = 2104, as the drive set them",
+        pd_reply(&r915) == Some((response::ARRAY_WORD, 113))
+            && pd_reply(&r916) == Some((response::ARRAY_WORD, 2104)),
+    );
+    // A 916 write from the master lands in the drive's group: PZD4 IN <- 2100 (D0.00).
+    let r = pkw(
+        sim,
+        pd_request(rq::WRITE_ARRAY_WORD, 916, 4, 2100),
+        &out[4..],
+    )?;
+    let written = pd_reply(&r) == Some((response::ARRAY_WORD, 2100))
+        && wait(sim, 100_000, |_, d| group(d, fb::PZD3_OUT + 3) == 2100)?;
+    check(
+        c,
+        "916[4] = 2100 written by the master: the drive's 51.08 follows",
+        written,
+    );
+    out[4] = pd::OPERATE;
+    put(sim, &out);
+    // F0.13 is now 3.0 s from 0 to 50.00 Hz: 25.00 Hz in 1.5 s.
+    let running = wait(sim, 2_500_000, |i, d| {
+        let f = d.output_frequency();
+        i[5] == 0x2000
+            && f == 2500
+            && i[6] == d.read_register(OUTPUT_CURRENT).unwrap_or(0)
+            && i[7] == f
+    })?;
+    check(
+        c,
+        "running at 0x2000: PZD3 in is D0.04 (current), PZD4 in is D0.00 (frequency)",
+        running,
+    );
+
+    // The switch sets the address: a 51.02 from the panel does not move the adapter.
+    let _ = sim
+        .drive_now()
+        .set_at_panel(fieldbus::register(fb::NODE_ADDRESS), 20);
+    let _ = sim
+        .drive_now()
+        .set_at_panel(fieldbus::register(fb::PAR_REFRESH), fieldbus::REFRESH);
+    let kept = wait(sim, 1_000_000, |_, d| {
+        group(d, fb::PAR_REFRESH) == fieldbus::DONE && group(d, fb::NODE_ADDRESS) == 8
+    })?;
+    check(
+        c,
+        "switch at 8: 51.02 = 20 and a refresh leave the adapter at 8, and 51.02 shows 8 again",
+        kept && sim.status.address == SWITCH_ADDRESS
+            && sim.master.as_mut().is_some_and(|m| m.running()),
+    );
+
+    // The switch at 0: the address is the stored one until the drive sets another.
+    sim.stop_master();
+    sim.switch = 0;
+    sim.power_cycle()?;
+    let shown = wait_drive(sim, 100_000, |d| group(d, fb::NODE_ADDRESS) == 126)?;
+    check(
+        c,
+        "switch 0, empty storage: address 126, and 51.02 shows it",
+        shown && sim.status.address == 126,
+    );
+    let _ = sim
+        .drive_now()
+        .set_at_panel(fieldbus::register(fb::NODE_ADDRESS), 30);
+    let _ = sim
+        .drive_now()
+        .set_at_panel(fieldbus::register(fb::PAR_REFRESH), fieldbus::REFRESH);
+    let t0 = sim.now_us();
+    let moved = wait_drive(sim, 1_000_000, |d| {
+        group(d, fb::PAR_REFRESH) == fieldbus::DONE
+    })? && sim.status.address == 30;
+    check(
+        c,
+        format!(
+            "51.02 = 30 and a refresh: the adapter answers at 30 after {} ms, no power cycle",
+            (sim.now_us() - t0) / 1000
+        ),
+        moved,
+    );
+    check(
+        c,
+        "the storage keeps address 30",
+        sim.nv.is_some_and(|r| r.address == 30),
+    );
+    let mut at_30 = setup(Ppo::Ppo2, prm);
+    at_30.slave_address = 30;
+    let ok = start(sim, at_30)?;
+    out[4] = pd::READY;
+    out[6] = 40;
+    put(sim, &out);
+    let mapped = ok && wait(sim, 100_000, |_, d| d.read_register(ACCEL_TIME) == Ok(40))?;
+    check(
+        c,
+        "data exchange at 30; the drive's PZD3 mapping read at power-up (PZD3 out -> F0.13)",
+        mapped,
+    );
+    Ok(())
+}
+
+/// Runs until `done(drive)` holds (checked every millisecond), at most `limit_us`.
+fn wait_drive<F: Firmware>(
+    sim: &mut CoSim<F>,
+    limit_us: u64,
+    mut done: impl FnMut(&DriveSim) -> bool,
+) -> io::Result<bool> {
+    let end = sim.now_us() + limit_us;
+    loop {
+        if done(sim.drive_now()) {
+            return Ok(true);
+        }
+        if sim.now_us() >= end {
+            return Ok(false);
+        }
+        sim.run_for_us(1_000)?;
+    }
 }
 
 /// A Global_Control Clear_Data from the master's address, sent by the commissioning tool

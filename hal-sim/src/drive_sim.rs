@@ -24,10 +24,17 @@
 //! | 0x2301..0x2309 | PZD2..PZD10 in mapping: the code each reads (0: none), volatile |
 //! | 0x2400.. | PZD in block: status word, then the mapped values (read) |
 //! | 0x2500.. | PZD out block: control word, then the mapped values (write, not persisted) |
+//! | 0x5101..0x5121, 0x5127 | fieldbus group 51.01-51.21 and 51.27 (seed 004, table 5; `drive_link::fieldbus`) |
+//!
+//! The fieldbus group is seed 004's: module type, node address (default 3), baud rate (kbit/s,
+//! default 1500) and PPO type are written by the module and read-only at the panel
+//! ([`DriveSim::set_at_panel`]); PZD3-10 OUT/IN (0-32767), DP mode (0 DP-V0, 1 DP-V1) and
+//! FBA PAR REFRESH (0 DONE, 1 REFRESH) are set at the panel. 51.01 holds 1 for PROFIBUS DP.
 //!
 //! Functions: 03h read holding registers, 06h write single register, 17h read/write multiple
 //! registers (the writes first, as the Modbus specification orders it).
 
+use drive_link::fieldbus::{self, index as fb, index_of};
 use profidrive::codes::{CodeKind, FunctionCode};
 use profidrive::drive::{Drive, DriveError, FaultRecord};
 use profidrive::words::{control, rose, status};
@@ -86,6 +93,8 @@ pub struct DriveSim {
     /// The PZD2..PZD10 mapping registers (out, in).
     pzd_out_map: [u16; 9],
     pzd_in_map: [u16; 9],
+    /// Group 51, by index (0 unused).
+    fieldbus: [u16; fieldbus::LAST_INDEX as usize + 1],
     /// Writes to non-volatile memory.
     pub persistent_writes: u32,
     pub fault_resets: u32,
@@ -111,6 +120,13 @@ impl Default for DriveSim {
             link_fault: LinkFault::None,
             pzd_out_map: [0; 9],
             pzd_in_map: [0; 9],
+            fieldbus: {
+                let mut group = [0; fieldbus::LAST_INDEX as usize + 1];
+                group[usize::from(fb::NODE_ADDRESS)] = 3;
+                group[usize::from(fb::BAUD_RATE)] = 1500;
+                group[usize::from(fb::PPO_TYPE)] = 1;
+                group
+            },
             persistent_writes: 0,
             fault_resets: 0,
         }
@@ -302,6 +318,9 @@ impl DriveSim {
         if let Some(slot) = map_slot(register, PZD_IN_MAP) {
             return Ok(self.pzd_in_map[slot]);
         }
+        if let Some(i) = index_of(register) {
+            return Ok(self.fieldbus[usize::from(i)]);
+        }
         if register == PZD_IN_BLOCK {
             return Ok(self.status_word());
         }
@@ -343,6 +362,16 @@ impl DriveSim {
         }
         if let Some(slot) = map_slot(register, PZD_IN_MAP) {
             self.pzd_in_map[slot] = mapped_code(value)?;
+            return Ok(());
+        }
+        if let Some(i) = index_of(register) {
+            if !fieldbus_value_valid(i, value) {
+                return Err(DriveError::InvalidData);
+            }
+            self.fieldbus[usize::from(i)] = value;
+            if persist {
+                self.persistent_writes += 1;
+            }
             return Ok(());
         }
         if register == PZD_OUT_BLOCK {
@@ -401,6 +430,39 @@ impl Drive for DriveSim {
     fn read_status(&mut self) -> Result<u16, DriveError> {
         self.contact()?;
         self.read_register(STATUS_WORD)
+    }
+}
+
+impl DriveSim {
+    /// A parameter set at the drive's own panel (a commissioning engineer, not the adapter):
+    /// the values the module reports (51.01, 51.03, 51.04) and status values are read-only.
+    pub fn set_at_panel(&mut self, register: u16, value: u16) -> Result<(), DriveError> {
+        let read_only = matches!(
+            index_of(register),
+            Some(fb::MODULE_TYPE | fb::BAUD_RATE | fb::PPO_TYPE)
+        );
+        if read_only {
+            return Err(DriveError::AccessRestricted);
+        }
+        if index_of(register).is_none() && !is_parameter(register) {
+            return Err(match FunctionCode(register).kind() {
+                Some(_) => DriveError::AccessRestricted,
+                None => DriveError::IllegalAddress,
+            });
+        }
+        self.write_register(register, value, true)
+    }
+}
+
+/// The range of each fieldbus parameter (seed 004, table 5).
+fn fieldbus_value_valid(index: u8, value: u16) -> bool {
+    match index {
+        fb::NODE_ADDRESS => value <= u16::from(dp_consts::MAX_STATION_ADDRESS),
+        fb::BAUD_RATE => fieldbus::BAUD_RATE_KBIT.contains(&value),
+        fb::PPO_TYPE => (1..=6).contains(&value),
+        fb::PZD3_OUT..=fb::PZD10_IN => value <= 32767,
+        fb::DP_MODE | fb::PAR_REFRESH => value <= 1,
+        _ => true,
     }
 }
 
@@ -518,9 +580,10 @@ pub fn request_len(prefix: &[u8]) -> Option<usize> {
     }
 }
 
-/// Writes over Modbus go to non-volatile memory for the application parameters only.
+/// Writes over Modbus go to non-volatile memory for the application parameters and the
+/// fieldbus group only.
 fn is_parameter(register: u16) -> bool {
-    FunctionCode(register).kind() == Some(CodeKind::Application)
+    FunctionCode(register).kind() == Some(CodeKind::Application) || index_of(register).is_some()
 }
 
 impl DriveSim {
@@ -660,6 +723,53 @@ mod tests {
         assert_eq!(Drive::read_status(&mut d), Err(DriveError::NoAnswer));
         d.link_fault = LinkFault::CrcError;
         assert_eq!(Drive::read_status(&mut d), Err(DriveError::CrcError));
+    }
+
+    #[test]
+    fn the_fieldbus_group_of_seed_004_table_5() {
+        let mut d = DriveSim::default();
+        // Defaults of table 5: address 3, 1500 kbit/s, PPO1, DP-V0, DONE.
+        let read = |d: &DriveSim, i| d.read_register(fieldbus::register(i));
+        assert_eq!(read(&d, fb::NODE_ADDRESS), Ok(3));
+        assert_eq!(read(&d, fb::BAUD_RATE), Ok(1500));
+        assert_eq!(read(&d, fb::PPO_TYPE), Ok(1));
+        assert_eq!(read(&d, fb::DP_MODE), Ok(0));
+        assert_eq!(read(&d, fb::PAR_REFRESH), Ok(fieldbus::DONE));
+        // 51.22-51.26 are not in the table.
+        assert_eq!(d.read_register(0x5122), Err(DriveError::IllegalAddress));
+        // At the panel, what the module reports is read-only; the rest has table 5's ranges.
+        for i in [fb::MODULE_TYPE, fb::BAUD_RATE, fb::PPO_TYPE] {
+            assert_eq!(
+                d.set_at_panel(fieldbus::register(i), 2),
+                Err(DriveError::AccessRestricted)
+            );
+        }
+        assert_eq!(
+            d.set_at_panel(fieldbus::register(fb::PZD3_OUT), 1202),
+            Ok(())
+        );
+        assert_eq!(
+            d.set_at_panel(fieldbus::register(fb::PZD3_OUT), 32768),
+            Err(DriveError::InvalidData)
+        );
+        assert_eq!(
+            d.set_at_panel(fieldbus::register(fb::NODE_ADDRESS), 127),
+            Err(DriveError::InvalidData)
+        );
+        assert_eq!(
+            d.set_at_panel(OUTPUT_FREQUENCY, 1),
+            Err(DriveError::AccessRestricted)
+        );
+        // The module writes them over Modbus, within their ranges; they are non-volatile.
+        let writes = d.persistent_writes;
+        let baud = with_crc(vec![1, 0x06, 0x51, 0x03, 0x2E, 0xE0]); // 12000
+        assert_eq!(d.modbus(&baud), Some(baud.clone()));
+        assert_eq!(read(&d, fb::BAUD_RATE), Ok(12000));
+        assert_eq!(
+            d.modbus(&with_crc(vec![1, 0x06, 0x51, 0x03, 0x2E, 0xE1])),
+            Some(with_crc(vec![1, 0x86, 0x03]))
+        );
+        assert_eq!(d.persistent_writes, writes + 1);
     }
 
     #[test]

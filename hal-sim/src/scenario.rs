@@ -40,6 +40,8 @@ pub enum Kind {
     DriveProfidrive,
     /// PLC stop and communication loss, in each fail-safe mode.
     FailSafeModes,
+    /// The drive's fieldbus group 51: shown values, refresh, node address.
+    FieldbusGroup,
     /// Adapter latency for PPO1-5 at 1.5 Mbit/s (figures for the report).
     Latency,
 }
@@ -76,6 +78,7 @@ pub fn all() -> Vec<Scenario> {
         ("drive-vendor", Kind::DriveVendor),
         ("drive-profidrive", Kind::DriveProfidrive),
         ("fail-safe-modes", Kind::FailSafeModes),
+        ("drive-fieldbus-group", Kind::FieldbusGroup),
         ("latency", Kind::Latency),
     ];
     list.extend(more.into_iter().map(|(name, kind)| Scenario {
@@ -353,6 +356,7 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
         Kind::DriveVendor => crate::drive_scenarios::vendor(&mut sim, &mut c.0)?,
         Kind::DriveProfidrive => crate::drive_scenarios::profidrive(&mut sim, &mut c.0)?,
         Kind::FailSafeModes => crate::drive_scenarios::fail_safe_modes(&mut sim, &mut c.0)?,
+        Kind::FieldbusGroup => crate::drive_scenarios::fieldbus_group(&mut sim, &mut c.0)?,
         Kind::Latency => report = crate::drive_scenarios::latency(&mut sim, &mut c.0)?,
     }
     let figures = sim.figures.clone();

@@ -11,12 +11,20 @@
 //! 99 restores the factory defaults at power-up and then behaves as 0. A reading above 99
 //! cannot come from two decimal digits; it is treated as 0, the setting that keeps the stored
 //! configuration, and the boot log says so.
+//!
+//! The drive's fieldbus group 51 (seed 004, `drive_link::fieldbus`): the adapter shows its
+//! module type, address, baud rate and PPO type there, and takes the PZD3-10 mapping (the
+//! PROFIdrive 915/916 it keeps) from it at link-up and on each FBA PAR REFRESH; a 915/916
+//! write goes back into the group. With the switch at 0, the node address 51.02 takes effect
+//! on a refresh: the slave restarts at it and the storage keeps it. At power-up the address
+//! stays seed 000's (switch or storage) and 51.02 shows it: the two manuals disagree there, and
+//! the stored address is the one Set_Slave_Add keeps.
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
 
 use dp_link::{Led, Leds, NvRecord, SlaveState, Status, ToAdapter};
 use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
-use drive_link::{LinkedDrive, ModbusMaster};
+use drive_link::{fieldbus, LinkedDrive, ModbusMaster};
 use embedded_hal_nb::serial::{Read, Write};
 use profidrive::ppo::Ppo;
 use profidrive::ProfidriveApp;
@@ -65,6 +73,10 @@ pub trait Background {
     /// `dp_consts::Baud`), for the parameters that show them (PROFIdrive 918 and 963).
     fn station(&mut self, _address: u8) {}
     fn rate(&mut self, _baud_index: u8) {}
+    /// A station address asked for from the drive's side (51.02 after a refresh), once.
+    fn requested_station(&mut self) -> Option<u16> {
+        None
+    }
 }
 
 /// A UART that counts what it sent (the simulated drive link's lockstep needs the count).
@@ -81,6 +93,7 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
         // so that the next data exchange carries it.
         self.service(now);
         self.drive_mut().poll(now_us);
+        sync_fieldbus_group(self);
         self.service(now);
         self.drive().poll_at()
     }
@@ -95,11 +108,42 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
 
     fn station(&mut self, address: u8) {
         self.params_mut().node_address = u16::from(address);
+        self.drive_mut()
+            .fieldbus_mut()
+            .show(fieldbus::index::NODE_ADDRESS, u16::from(address));
     }
 
     fn rate(&mut self, baud_index: u8) {
         // 963 counts the other way: 0 = 12M .. 9 = 9.6k (the SPC3's code).
         self.params_mut().baud_code = u16::from(9u8.saturating_sub(baud_index));
+        if let Some(kbit) = fieldbus::BAUD_RATE_KBIT.get(usize::from(baud_index)) {
+            self.drive_mut()
+                .fieldbus_mut()
+                .show(fieldbus::index::BAUD_RATE, *kbit);
+        }
+    }
+
+    fn requested_station(&mut self) -> Option<u16> {
+        self.drive_mut().fieldbus_mut().take_requested_address()
+    }
+}
+
+/// The PZD3-10 mapping between the drive's group 51 and 915/916: what the group read goes
+/// into 915/916, and 915/916 (a PROFIdrive write, or what was just read) are shown there,
+/// with the PPO type in force.
+fn sync_fieldbus_group<U: Read<u8> + Write<u8>>(app: &mut DriveApp<U>) {
+    if let Some(settings) = app.drive_mut().fieldbus_mut().take_settings() {
+        let params = app.params_mut();
+        // 915/916 index 3..10 (PZD1 and PZD2 are fixed).
+        params.pzd_out[2..].copy_from_slice(&settings.pzd_out);
+        params.pzd_in[2..].copy_from_slice(&settings.pzd_in);
+    }
+    let (out, inp) = (app.params().pzd_out, app.params().pzd_in);
+    let ppo = app.ppo().map(|p| u16::from(p.number()));
+    let group = app.drive_mut().fieldbus_mut();
+    group.show_mapping(&out[2..], &inp[2..]);
+    if let Some(ppo) = ppo {
+        group.show(fieldbus::index::PPO_TYPE, ppo);
     }
 }
 
@@ -240,6 +284,8 @@ pub struct Adapter<A> {
     response: [u8; dp_consts::MAX_TELEGRAM_LEN],
     /// When the background must run next.
     background_at: Option<u64>,
+    /// The address the application was last told (`Background::station`).
+    station_told: u8,
 }
 
 impl<A: Application + Background> Adapter<A> {
@@ -268,7 +314,10 @@ impl<A: Application + Background> Adapter<A> {
             exchanged: false,
             malformed_telegrams: 0,
             response: [0; dp_consts::MAX_TELEGRAM_LEN],
-            background_at: None,
+            // The background starts at once (the drive link loads the fieldbus group and keeps
+            // the drive alive), not at the first telegram.
+            background_at: Some(0),
+            station_told: addressing.address,
         }
     }
 
@@ -339,8 +388,39 @@ impl<A: Application + Background> Adapter<A> {
         }
         if let ToAdapter::Telegram { now_us, .. } | ToAdapter::Tick { now_us, .. } = *message {
             self.background_at = self.slave.app_mut().inner.run(now_us);
+            if let Some(address) = self.slave.app_mut().inner.requested_station() {
+                self.readdress(Instant::from_micros(now_us), address);
+            }
+        }
+        // Set_Slave_Add or the drive changed it: 918 and 51.02 follow.
+        let address = self.slave.address();
+        if address != self.station_told {
+            self.station_told = address;
+            self.slave.app_mut().inner.station(address);
         }
         self.status()
+    }
+
+    /// Seed 004's software addressing: with the switch at 0, the drive's 51.02 after a refresh
+    /// becomes the address. The slave restarts at it (a master must parameterise it again
+    /// there) and the storage keeps it. With the switch set, or an address a slave cannot
+    /// have, nothing changes, and 51.02 shows the address in force again.
+    fn readdress(&mut self, now: Instant, address: u16) {
+        let Ok(address) = u8::try_from(address) else {
+            return;
+        };
+        if self.addressing.source == AddressSource::Switch
+            || !(1..=dp_consts::MAX_STATION_ADDRESS).contains(&address)
+            || address == self.slave.address()
+        {
+            return;
+        }
+        self.slave.restart_at(now, address);
+        let no_add_chg = self.slave.no_add_chg();
+        self.slave.app_mut().nv_write = Some(NvRecord {
+            address,
+            no_add_chg,
+        });
     }
 
     /// The status now; takes a pending storage write.

@@ -360,7 +360,25 @@ impl<A: Application> Slave<A> {
         }
     }
 
-    /// Leaves any state for Wait_Prm; the application goes fail-safe if data was exchanged.
+    /// The station address changed outside the bus (an adapter's software addressing, such as
+    /// seed 004's node address parameter and a parameter refresh): the slave starts again at
+    /// `address` in Wait_Prm, as after a power-up, and the application goes fail-safe if data
+    /// was exchanged.
+    pub fn restart_at(&mut self, now: Instant, address: u8) {
+        self.address = address;
+        self.owner = None;
+        self.locked = false;
+        self.watchdog_micros = None;
+        self.watchdog_deadline = None;
+        self.last = None;
+        self.leave_to_wait_prm(now, FailSafeReason::LeftDataExchange);
+    }
+
+    /// Whether Set_Slave_Add is refused from now on.
+    pub fn no_add_chg(&self) -> bool {
+        self.no_add_chg
+    }
+
     /// The application refused user parameters it had first taken on trust (an adapter that
     /// answers Set_Prm before it checks them): Prm_Fault, back to Wait_Prm, no owner, no lock,
     /// no watchdog, as if the Set_Prm had been refused.
@@ -373,6 +391,7 @@ impl<A: Application> Slave<A> {
         self.leave_to_wait_prm(now, FailSafeReason::LeftDataExchange);
     }
 
+    /// Leaves any state for Wait_Prm; the application goes fail-safe if data was exchanged.
     fn leave_to_wait_prm(&mut self, now: Instant, reason: FailSafeReason) {
         if self.state == State::DataExch {
             self.app.fail_safe(now, reason);
@@ -1168,6 +1187,28 @@ mod tests {
             Some(Owned::Data(S::SapNotActivated, vec![]))
         );
         assert_eq!(s.address(), ME);
+    }
+
+    #[test]
+    fn restart_at_a_new_address_leaves_data_exchange_and_answers_only_there() {
+        let mut s = slave();
+        into_data_exchange(&mut s);
+        s.restart_at(Instant::from_micros(5), 42);
+        assert_eq!((s.address(), s.state()), (42, State::WaitPrm));
+        assert_eq!(
+            s.app().fail_safes.as_slice(),
+            [FailSafeReason::LeftDataExchange]
+        );
+        assert_eq!(s.owner(), None);
+        assert!(!s.is_locked());
+        // The old address is silent; the new one wants parameters again.
+        assert_eq!(send(&mut s, 10, service(Sap::SLAVE_DIAG, &[])), None);
+        let at_42 = DataRepr {
+            da: 42,
+            ..service(Sap::SET_PRM, &SET_PRM)
+        };
+        assert_eq!(send(&mut s, 20, at_42), Some(Owned::ShortAck));
+        assert_eq!(s.state(), State::WaitCfg);
     }
 
     #[test]

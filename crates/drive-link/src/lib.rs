@@ -17,7 +17,9 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
 
+pub mod fieldbus;
 mod linked;
+pub use fieldbus::FieldbusGroup;
 pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US};
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind as UartError, Read, Write};

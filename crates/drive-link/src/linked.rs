@@ -17,11 +17,14 @@
 //!   [`KEEPALIVE_US`], so a lost drive shows before the master asks, and the drive's own
 //!   communication alarm stays quiet.
 //! - Link errors (no answer, CRC, noise) hold until the next transaction succeeds.
+//! - The drive's fieldbus group 51 ([`FieldbusGroup`]) gets its transactions between the
+//!   others; during data exchange at most one between two cycles, so a PZD cycle is never
+//!   delayed by more than one short transaction.
 
+use crate::{FieldbusGroup, PZD_IN_MAP, PZD_OUT_MAP};
 use crate::{
     ModbusMaster, Op, Outcome, CONTROL_WORD_REGISTER, MAX_PZD_WORDS, STATUS_WORD_REGISTER,
 };
-use crate::{PZD_IN_MAP, PZD_OUT_MAP};
 use embedded_hal_nb::serial::{Read, Write};
 use heapless09::{Deque, Vec};
 use profidrive::codes::FunctionCode;
@@ -45,6 +48,8 @@ enum Job {
         words: usize,
     },
     KeepAlive,
+    /// A transaction of the fieldbus group.
+    Group(Op),
 }
 
 /// Counters for reports.
@@ -75,6 +80,9 @@ pub struct LinkedDrive<U> {
     answers: Vec<(Op, Result<Outcome, DriveError>), ANSWERS>,
     deferred: bool,
     next_keepalive_us: u64,
+    group: FieldbusGroup,
+    /// The last transaction was a cycle: the group may have the next one.
+    cycle_ran: bool,
     pub figures: LinkFigures,
 }
 
@@ -96,6 +104,8 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             answers: Vec::new(),
             deferred: false,
             next_keepalive_us: 0,
+            group: FieldbusGroup::default(),
+            cycle_ran: false,
             figures: LinkFigures::default(),
         }
     }
@@ -108,6 +118,15 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         &mut self.master
     }
 
+    /// The drive's fieldbus group 51.
+    pub fn fieldbus(&self) -> &FieldbusGroup {
+        &self.group
+    }
+
+    pub fn fieldbus_mut(&mut self) -> &mut FieldbusGroup {
+        &mut self.group
+    }
+
     /// The link's error, while it lasts.
     pub fn link_error(&self) -> Option<DriveError> {
         self.link_error
@@ -118,7 +137,11 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
     pub fn poll_at(&self) -> Option<u64> {
         match self.job {
             Some(_) => self.master.deadline(),
-            None if self.words == 0 && self.requests.is_empty() => Some(self.next_keepalive_us),
+            None if self.words == 0 && self.requests.is_empty() => Some(
+                self.group
+                    .poll_at()
+                    .map_or(self.next_keepalive_us, |at| at.min(self.next_keepalive_us)),
+            ),
             None => None,
         }
     }
@@ -164,7 +187,14 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                 return Some(Job::Map(false, slot));
             }
         }
+        if self.words == 0 || self.cycle_ran {
+            if let Some(op) = self.group.next_op(now_us) {
+                self.cycle_ran = false;
+                return Some(Job::Group(op));
+            }
+        }
         if self.words > 0 {
+            self.cycle_ran = true;
             return Some(Job::Cycle { words: self.words });
         }
         if now_us >= self.next_keepalive_us {
@@ -184,6 +214,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                 out: self.out,
             },
             Job::KeepAlive => Op::Read(STATUS_WORD_REGISTER),
+            Job::Group(op) => op,
         }
     }
 
@@ -194,9 +225,11 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         };
         match result {
             Err(e) if e.is_link_fault() => {
+                // The drive may have restarted: what it holds is unknown.
                 self.link_error = Some(e);
                 self.drive_targets = [None; MAX_PZD_WORDS - 1];
                 self.drive_sources = [None; MAX_PZD_WORDS - 1];
+                self.group.link_lost();
             }
             // The drive answered: the link works, whatever it said.
             _ => self.link_error = None,
@@ -236,6 +269,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                 }
             }
             Job::KeepAlive => {}
+            Job::Group(op) => self.group.finish(op, result),
         }
     }
 

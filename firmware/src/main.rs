@@ -212,7 +212,14 @@ macro_rules! adapter_app {
                 };
                 send(tx, &reply);
                 // The drive link's turn, after the response is on its way.
+                let (before, address) = (adapter.slave().state(), status.address);
                 let status = adapter.after_message(message);
+                if adapter::link_state(before) != status.state {
+                    info!("slave: {} -> {}", before, status.state);
+                }
+                if status.address != address {
+                    info!("slave: address {=u8} -> {=u8}, from the drive's 51.02", address, status.address);
+                }
                 send(tx, &FromAdapter::Done { seq: message.seq(), status });
             }
 

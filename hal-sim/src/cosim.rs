@@ -460,8 +460,8 @@ impl<F: Firmware> CoSim<F> {
         if new.leds != old.leds {
             let l = new.leds;
             self.event(format!(
-                "leds: net {:?}, run {:?}, error {:?}, online {:?}, offline {:?}",
-                l.net, l.run, l.error, l.online, l.offline
+                "leds: net {:?}, run {:?}, tx {:?}, rx {:?}, error {:?}, online {:?}, offline {:?}",
+                l.net, l.run, l.tx, l.rx, l.error, l.online, l.offline
             ));
         }
         if let Some(record) = new.nv_write {

@@ -13,7 +13,9 @@ use crate::drive_sim::{
 use crate::firmware::Firmware;
 use crate::scenario::SWITCH_ADDRESS;
 use dp_consts::Baud;
+use dp_link::Led;
 use drive_link::fieldbus::{self, index as fb};
+use drive_link::LED_ACTIVITY_US;
 use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
 use profidrive::codes::FunctionCode;
 use profidrive::pd_params::{request as rq, response, Frame};
@@ -288,6 +290,18 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
         diag.get(1)
             .is_some_and(|f| f & profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY != 0),
     );
+    let end = sim.now + LED_ACTIVITY_US * TICKS_PER_US * 3 / 2;
+    sim.run_until(end, |s| s.status.leds.rx == Led::Off)?;
+    let leds = sim.status.leds;
+    check(
+        c,
+        format!(
+            "cable out: TX flashes, RX off within {} ms, Run blinks 2 Hz (tx {:?}, rx {:?}, run {:?})",
+            LED_ACTIVITY_US / 1000,
+            leds.tx, leds.rx, leds.run
+        ),
+        (leds.tx, leds.rx, leds.run) == (Led::Blink4Hz, Led::Off, Led::Blink2Hz),
+    );
     let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &out[4..])?;
     check(
         c,
@@ -301,10 +315,14 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     let back = wait(sim, 50_000, |i, _| {
         i[4] & 0xFF00 != 0xC000 && i[4] & status::RUNNING != 0
     })?;
+    let leds = sim.status.leds;
     check(
         c,
-        "cable back: the status word again, the drive running",
-        back,
+        format!(
+            "cable back: the status word again, the drive running; TX and RX flash, Run flashes 1 Hz (tx {:?}, rx {:?}, run {:?})",
+            leds.tx, leds.rx, leds.run
+        ),
+        back && (leds.tx, leds.rx, leds.run) == (Led::Blink4Hz, Led::Blink4Hz, Led::Flash1Hz),
     );
 
     // Another mapping through the user parameters: PZD2 in from D0.04 (output current).

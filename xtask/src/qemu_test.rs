@@ -279,7 +279,7 @@ fn diff(want: &str, got: &str) -> String {
 fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
     println!();
     println!(
-        "{:<24} {:<6} {:>7} {:>5} {:>8} {:>9} {:>9} {:>6}  leds (net run error online offline)",
+        "{:<24} {:<6} {:>7} {:>5} {:>8} {:>9} {:>9} {:>6}  leds (net run tx rx error online offline)",
         "scenario", "result", "locked", "lost", "cycles", "fw bits", "tsdr bits", "max"
     );
     for (name, ok, outcome) in rows {
@@ -296,7 +296,7 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
         });
         let l = o.leds;
         println!(
-            "{:<24} {:<6} {:>7} {:>5} {:>8} {:>9} {:>9} {:>6}  {:?} {:?} {:?} {:?} {:?}",
+            "{:<24} {:<6} {:>7} {:>5} {:>8} {:>9} {:>9} {:>6}  {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
             name,
             if *ok { "ok" } else { "FAILED" },
             baud.map_or("-".into(), |b| b.to_string()),
@@ -308,6 +308,8 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
                 .map_or("-".into(), |b| b.default_max_tsdr_bits().to_string()),
             l.net,
             l.run,
+            l.tx,
+            l.rx,
             l.error,
             l.online,
             l.offline,

@@ -73,6 +73,10 @@ pub trait Background {
     /// `dp_consts::Baud`), for the parameters that show them (PROFIdrive 918 and 963).
     fn station(&mut self, _address: u8) {}
     fn rate(&mut self, _baud_index: u8) {}
+    /// Whether the adapter accessed the drive, and the drive answered, lately (at `now_us`).
+    fn drive_activity(&self, _now_us: u64) -> (bool, bool) {
+        (false, false)
+    }
     /// A station address asked for from the drive's side (51.02 after a refresh), once.
     fn requested_station(&mut self) -> Option<u16> {
         None
@@ -125,6 +129,10 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
 
     fn requested_station(&mut self) -> Option<u16> {
         self.drive_mut().fieldbus_mut().take_requested_address()
+    }
+
+    fn drive_activity(&self, now_us: u64) -> (bool, bool) {
+        self.drive().activity(now_us)
     }
 }
 
@@ -286,6 +294,8 @@ pub struct Adapter<A> {
     background_at: Option<u64>,
     /// The address the application was last told (`Background::station`).
     station_told: u8,
+    /// The time of the last message (the LEDs' clock).
+    now_us: u64,
 }
 
 impl<A: Application + Background> Adapter<A> {
@@ -318,6 +328,7 @@ impl<A: Application + Background> Adapter<A> {
             // the drive alive), not at the first telegram.
             background_at: Some(0),
             station_told: addressing.address,
+            now_us: 0,
         }
     }
 
@@ -341,6 +352,9 @@ impl<A: Application + Background> Adapter<A> {
     /// the response telegram (empty for none) and the status after it. The caller sends the
     /// response, then calls [`Adapter::after_message`].
     pub fn on_message(&mut self, message: &ToAdapter) -> (&[u8], Status) {
+        if let ToAdapter::Telegram { now_us, .. } | ToAdapter::Tick { now_us, .. } = *message {
+            self.now_us = now_us;
+        }
         let len = match *message {
             ToAdapter::Telegram {
                 now_us,
@@ -448,23 +462,32 @@ impl<A: Application + Background> Adapter<A> {
         }
     }
 
-    /// The LEDs from the slave's state. Seed 000: Net off before data exchange, on in it,
-    /// blinking when DP communication went wrong; Run flashes 20 ms a second in normal data
-    /// exchange. Seed 004: online on in data exchange, offline on otherwise, error blinking
-    /// 1 Hz for a configuration fault and 2 Hz for a user-parameter fault. TX and RX belong to
-    /// the drive link.
+    /// The LEDs from the slave's state and the drive link. Seed 000: Net off before data
+    /// exchange, on in it, blinking when DP communication went wrong; Run flashes 20 ms a
+    /// second in data exchange with the drive link working, and blinks 2 Hz in data exchange
+    /// when the drive link fails or refuses the PZD mapping; TX flashes while the adapter
+    /// accesses the drive, RX while the drive answers, both off without traffic. Seed 004:
+    /// online on in data exchange, offline on otherwise, error blinking 1 Hz for a
+    /// configuration fault and 2 Hz for a user-parameter fault.
     fn leds(&self) -> Leds {
         let exchanging = self.slave.state() == State::DataExch;
         let faulted = self.slave.prm_fault() || self.slave.cfg_fault();
+        let app = &self.slave.app().inner;
+        let (accessed, answered) = app.drive_activity(self.now_us);
+        let flashing = |on: bool| if on { Led::Blink4Hz } else { Led::Off };
         Leds {
             net: match (exchanging, faulted || self.exchanged) {
                 (true, _) => Led::On,
                 (false, true) => Led::Blink2Hz,
                 (false, false) => Led::Off,
             },
-            run: if exchanging { Led::Flash1Hz } else { Led::Off },
-            tx: Led::Off,
-            rx: Led::Off,
+            run: match (exchanging, app.drive_link_error()) {
+                (false, _) => Led::Off,
+                (true, 0) => Led::Flash1Hz,
+                (true, _) => Led::Blink2Hz,
+            },
+            tx: flashing(accessed),
+            rx: flashing(answered),
             error: if self.slave.cfg_fault() {
                 Led::Blink1Hz
             } else if self.slave.prm_fault() {

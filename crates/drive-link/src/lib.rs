@@ -20,7 +20,7 @@
 pub mod fieldbus;
 mod linked;
 pub use fieldbus::FieldbusGroup;
-pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US};
+pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US, LED_ACTIVITY_US};
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind as UartError, Read, Write};
 use heapless09::Vec;

@@ -32,6 +32,8 @@ use profidrive::drive::{Drive, DriveError};
 
 /// The status-word poll period while there is no PZD configuration.
 pub const KEEPALIVE_US: u64 = 100_000;
+/// How long a request or an answer keeps seed 000's TX or RX LED flashing.
+pub const LED_ACTIVITY_US: u64 = 200_000;
 
 /// Parameter requests waiting for the link.
 const QUEUE: usize = 4;
@@ -83,6 +85,9 @@ pub struct LinkedDrive<U> {
     group: FieldbusGroup,
     /// The last transaction was a cycle: the group may have the next one.
     cycle_ran: bool,
+    /// When a request last went out, and when the drive last answered (any valid frame).
+    last_request_us: Option<u64>,
+    last_answer_us: Option<u64>,
     pub figures: LinkFigures,
 }
 
@@ -106,6 +111,8 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             next_keepalive_us: 0,
             group: FieldbusGroup::default(),
             cycle_ran: false,
+            last_request_us: None,
+            last_answer_us: None,
             figures: LinkFigures::default(),
         }
     }
@@ -125,6 +132,14 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
 
     pub fn fieldbus_mut(&mut self) -> &mut FieldbusGroup {
         &mut self.group
+    }
+
+    /// Seed 000's TX and RX LEDs at `now_us`: the adapter accessed the drive, the drive
+    /// answered, within [`LED_ACTIVITY_US`].
+    pub fn activity(&self, now_us: u64) -> (bool, bool) {
+        let recent =
+            |at: Option<u64>| at.is_some_and(|t| now_us.saturating_sub(t) < LED_ACTIVITY_US);
+        (recent(self.last_request_us), recent(self.last_answer_us))
     }
 
     /// The link's error, while it lasts.
@@ -153,7 +168,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             match self.master.poll(now_us) {
                 Some(outcome) => {
                     self.job = None;
-                    self.finish(job, outcome);
+                    self.finish(job, outcome, now_us);
                 }
                 None => return,
             }
@@ -166,11 +181,12 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             return;
         }
         self.job = Some(job);
+        self.last_request_us = Some(now_us);
         // Sends the request. One that is answered at once is finished here; the next one
         // waits for the next poll, so a call never runs more than two transactions.
         if let Some(outcome) = self.master.poll(now_us) {
             self.job = None;
-            self.finish(job, outcome);
+            self.finish(job, outcome, now_us);
         }
     }
 
@@ -218,7 +234,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         }
     }
 
-    fn finish(&mut self, job: Job, outcome: Outcome) {
+    fn finish(&mut self, job: Job, outcome: Outcome, now_us: u64) {
         let result = match outcome {
             Outcome::Failed(e) => Err(e),
             other => Ok(other),
@@ -232,7 +248,10 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                 self.group.link_lost();
             }
             // The drive answered: the link works, whatever it said.
-            _ => self.link_error = None,
+            _ => {
+                self.link_error = None;
+                self.last_answer_us = Some(now_us);
+            }
         }
         match job {
             Job::Request(op) => {

@@ -243,7 +243,7 @@ impl FieldbusGroup {
         let (register, written) = match op {
             Op::Read(r) => (r, None),
             Op::Write(r, v) => (r, Some(v)),
-            Op::Exchange { .. } => return,
+            Op::Exchange { .. } | Op::ReadInputs { .. } => return,
         };
         let Some(i) = index_of(register) else { return };
         match (result, written) {
@@ -353,7 +353,7 @@ mod tests {
                     drive[usize::from(index_of(r).unwrap())] = v;
                     Ok(Outcome::Written)
                 }
-                Op::Exchange { .. } => unreachable!(),
+                Op::Exchange { .. } | Op::ReadInputs { .. } => unreachable!(),
             };
             group.finish(op, result);
             assert!(ops.len() < 100, "the group never settles: {ops:?}");

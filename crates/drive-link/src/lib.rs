@@ -20,7 +20,7 @@
 pub mod fieldbus;
 mod linked;
 pub use fieldbus::FieldbusGroup;
-pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US, LED_ACTIVITY_US};
+pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US, LED_ACTIVITY_US, REWRITE_US};
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind as UartError, Read, Write};
 use heapless09::Vec;
@@ -60,6 +60,11 @@ pub enum Op {
     Exchange {
         words: u8,
         out: [u16; MAX_PZD_WORDS],
+    },
+    /// A PZD cycle whose outputs the drive already holds: `words` registers of the in block
+    /// (03h, 25 bytes on the line for PPO4 against 42 for the exchange).
+    ReadInputs {
+        words: u8,
     },
 }
 
@@ -195,6 +200,9 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
                 exchange_request(&out[..usize::from(words)], &mut self.tx);
                 Ok(())
             }
+            Op::ReadInputs { words } => {
+                request.generate_get_holdings(PZD_IN_BLOCK, u16::from(words), &mut self.tx)
+            }
         };
         // Cannot fail: the longest request (an exchange of 10 words, 33 bytes) fits.
         debug_assert!(built.is_ok());
@@ -270,7 +278,9 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
             (Some(function), _) if function & 0x80 != 0 => EXCEPTION_LEN,
             (_, Op::Read(_)) => READ_ANSWER_LEN,
             (_, Op::Write(..)) => WRITE_ANSWER_LEN,
-            (_, Op::Exchange { words, .. }) => 5 + 2 * usize::from(words),
+            (_, Op::Exchange { words, .. } | Op::ReadInputs { words }) => {
+                5 + 2 * usize::from(words)
+            }
         };
         self.rx.len() >= expected
     }
@@ -307,6 +317,18 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
             Op::Exchange { words, .. } => exchange_answer(&self.rx, usize::from(words))
                 .map(Outcome::Values)
                 .map_err(|e| counted(&mut self.stats, e)),
+            Op::ReadInputs { words } => {
+                let mut read: Vec<u16, MAX_PZD_WORDS> = Vec::new();
+                match pending.request.parse_u16(&self.rx, &mut read) {
+                    Ok(()) if read.len() == usize::from(words) => {
+                        let mut values = [0u16; MAX_PZD_WORDS];
+                        values[..read.len()].copy_from_slice(&read);
+                        Ok(Outcome::Values(values))
+                    }
+                    Ok(()) => Err(counted(&mut self.stats, DriveError::BusNoise)),
+                    Err(kind) => Err(counted(&mut self.stats, drive_error(kind))),
+                }
+            }
         }
     }
 

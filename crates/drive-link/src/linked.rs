@@ -5,6 +5,9 @@
 //!   cycle's answer) into the inputs, and the link's state as its result. [`LinkedDrive::poll`]
 //!   runs the cycles on its own, back to back: one 17h transaction writes PZD 1..N out and
 //!   reads PZD 1..N in. A cycle's answer is the drive's state after the cycle's writes.
+//!   While the drive holds the outputs already, a cycle only reads the in block (03h, about
+//!   60% of the line time), and the outputs are written again every [`REWRITE_US`] so that a
+//!   value changed at the drive's side is overwritten, as cyclic process data does.
 //! - The PZD mapping (the targets and sources of PZD2..N) lives in the drive's mapping
 //!   registers. The link writes the ones that changed before the next cycle, and all of them
 //!   again after the link failed (the drive may have restarted).
@@ -32,6 +35,8 @@ use profidrive::drive::{Drive, DriveError};
 
 /// The status-word poll period while there is no PZD configuration.
 pub const KEEPALIVE_US: u64 = 100_000;
+/// The longest a cycle reads only: then the outputs are written again though unchanged.
+pub const REWRITE_US: u64 = 10_000;
 /// How long a request or an answer keeps seed 000's TX or RX LED flashing.
 pub const LED_ACTIVITY_US: u64 = 200_000;
 
@@ -46,8 +51,10 @@ enum Job {
     Request(Op),
     /// Writes mapping register: `(out, slot)`, slot 0 is PZD2.
     Map(bool, usize),
+    /// A PZD cycle; `write`: the outputs it writes, `None` for a cycle that only reads.
     Cycle {
         words: usize,
+        write: Option<[u16; MAX_PZD_WORDS]>,
     },
     KeepAlive,
     /// A transaction of the fieldbus group.
@@ -85,6 +92,9 @@ pub struct LinkedDrive<U> {
     group: FieldbusGroup,
     /// The last transaction was a cycle: the group may have the next one.
     cycle_ran: bool,
+    /// The outputs the drive holds (the last written), and when they were written.
+    drive_out: Option<[u16; MAX_PZD_WORDS]>,
+    written_at_us: u64,
     /// When a request last went out, and when the drive last answered (any valid frame).
     last_request_us: Option<u64>,
     last_answer_us: Option<u64>,
@@ -111,6 +121,8 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             next_keepalive_us: 0,
             group: FieldbusGroup::default(),
             cycle_ran: false,
+            drive_out: None,
+            written_at_us: 0,
             last_request_us: None,
             last_answer_us: None,
             figures: LinkFigures::default(),
@@ -211,7 +223,14 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         }
         if self.words > 0 {
             self.cycle_ran = true;
-            return Some(Job::Cycle { words: self.words });
+            let mut out = [0; MAX_PZD_WORDS];
+            out[..self.words].copy_from_slice(&self.out[..self.words]);
+            let held = self.drive_out == Some(out)
+                && now_us.saturating_sub(self.written_at_us) < REWRITE_US;
+            return Some(Job::Cycle {
+                words: self.words,
+                write: (!held).then_some(out),
+            });
         }
         if now_us >= self.next_keepalive_us {
             self.next_keepalive_us = now_us + KEEPALIVE_US;
@@ -225,10 +244,14 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             Job::Request(op) => op,
             Job::Map(true, slot) => Op::Write(PZD_OUT_MAP + 1 + slot as u16, self.targets[slot]),
             Job::Map(false, slot) => Op::Write(PZD_IN_MAP + 1 + slot as u16, self.sources[slot]),
-            Job::Cycle { words } => Op::Exchange {
+            Job::Cycle {
+                words,
+                write: Some(out),
+            } => Op::Exchange {
                 words: words as u8,
-                out: self.out,
+                out,
             },
+            Job::Cycle { words, write: None } => Op::ReadInputs { words: words as u8 },
             Job::KeepAlive => Op::Read(STATUS_WORD_REGISTER),
             Job::Group(op) => op,
         }
@@ -245,6 +268,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                 self.link_error = Some(e);
                 self.drive_targets = [None; MAX_PZD_WORDS - 1];
                 self.drive_sources = [None; MAX_PZD_WORDS - 1];
+                self.drive_out = None;
                 self.group.link_lost();
             }
             // The drive answered: the link works, whatever it said.
@@ -263,6 +287,8 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             }
             Job::Map(out, slot) => {
                 self.figures.mapping_writes += 1;
+                // The out block means other registers now: the outputs go to them at once.
+                self.drive_out = None;
                 let (held, wanted) = if out {
                     (&mut self.drive_targets, self.targets[slot])
                 } else {
@@ -274,12 +300,16 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                     _ => Some(wanted),
                 };
             }
-            Job::Cycle { words } => {
+            Job::Cycle { words, write } => {
                 self.figures.cycles += 1;
                 match result {
                     Ok(Outcome::Values(values)) => {
                         self.inp = values;
                         self.in_words = words;
+                        if write.is_some() {
+                            self.drive_out = write;
+                            self.written_at_us = now_us;
+                        }
                     }
                     // The drive refused the cycle (a mapped register it does not have): the
                     // master sees the drive's error value in PZD1.

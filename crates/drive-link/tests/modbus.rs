@@ -143,6 +143,8 @@ struct SimUart {
     written: Vec<u8>,
     to_read: VecDeque<u8>,
     noisy_reported: bool,
+    /// The function code of each request served.
+    functions: Vec<u8>,
 }
 
 impl embedded_hal_nb::serial::ErrorType for SimUart {
@@ -154,6 +156,7 @@ impl embedded_hal_nb::serial::Write<u8> for SimUart {
         self.written.push(word);
         if drive_sim::request_len(&self.written) == Some(self.written.len()) {
             let request = std::mem::take(&mut self.written);
+            self.functions.push(request[1]);
             if let Some(answer) = self.drive.modbus(&request) {
                 self.to_read.extend(answer);
             }
@@ -191,6 +194,7 @@ fn the_drive_simulator_over_modbus() {
         written: Vec::new(),
         to_read: VecDeque::new(),
         noisy_reported: false,
+        functions: Vec::new(),
     };
     let clock = std::cell::Cell::new(0u64);
     let mut drive = BlockingDrive::new(
@@ -247,6 +251,7 @@ fn sim_uart() -> SimUart {
         written: Vec::new(),
         to_read: VecDeque::new(),
         noisy_reported: false,
+        functions: Vec::new(),
     }
 }
 
@@ -343,6 +348,34 @@ mod linked {
         assert_eq!((figures.mapping_writes, figures.requests), (2, 1));
         assert_eq!(app.drive().fieldbus().figures.loads, 1);
         assert!(figures.cycles > 10_000 - 18, "{figures:?}");
+    }
+
+    #[test]
+    fn held_outputs_are_only_read_and_rewritten_every_10_ms() {
+        let mut app = app(Ppo::Ppo1);
+        let mut now = 1_000;
+        exchange(&mut app, &mut now, [0; 8], START, 2500, 50);
+        let functions =
+            |app: &mut App| std::mem::take(&mut app.drive_mut().master_mut().uart_mut().functions);
+        functions(&mut app);
+        // 5 ms of unchanged outputs: cycles read the in block only (03h).
+        exchange(&mut app, &mut now, [0; 8], START, 2500, 50);
+        let served = functions(&mut app);
+        assert!(
+            served.len() > 40 && served.iter().all(|f| *f == 0x03),
+            "{served:x?}"
+        );
+        // A change is written by the next cycle (17h).
+        exchange(&mut app, &mut now, [0; 8], START, 2600, 1);
+        assert_eq!(sim(&mut app).read_register(0xF029), Ok(2600));
+        assert!(functions(&mut app).contains(&0x17));
+        // A value changed at the drive's side is overwritten within 10 ms.
+        sim(&mut app).write_register(0xF029, 1234, false).unwrap();
+        exchange(&mut app, &mut now, [0; 8], START, 2600, 100);
+        assert_eq!(sim(&mut app).read_register(0xF029), Ok(2600));
+        let served = functions(&mut app);
+        let exchanges = served.iter().filter(|f| **f == 0x17).count();
+        assert!((1..=2).contains(&exchanges), "{served:x?}");
     }
 
     #[test]

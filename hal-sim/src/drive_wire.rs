@@ -119,7 +119,11 @@ impl DriveWire {
         if let Some(answer) = answer {
             self.answers += 1;
             let done = at + frame_us(answer.len());
-            if answer.get(1) == Some(&drive_link::READ_WRITE_MULTIPLE) && answer.len() >= 5 {
+            // The in block comes with an exchange (17h) or a cycle that only reads (03h there).
+            let reads_in_block = request.get(1) == Some(&drive_link::READ_WRITE_MULTIPLE)
+                || (request.get(1) == Some(&0x03)
+                    && request.get(2..4) == Some(&drive_link::PZD_IN_BLOCK.to_be_bytes()[..]));
+            if reads_in_block && answer.get(1) == request.get(1) && answer.len() >= 5 {
                 let words = block_words(&answer[3..answer.len() - 2]);
                 if self.answered.last().map(|a| &a.words) != Some(&words) {
                     self.answered.push(Applied { at_us: done, words });

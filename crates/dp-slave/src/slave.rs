@@ -366,12 +366,8 @@ impl<A: Application> Slave<A> {
     /// was exchanged.
     pub fn restart_at(&mut self, now: Instant, address: u8) {
         self.address = address;
-        self.owner = None;
-        self.locked = false;
-        self.watchdog_micros = None;
-        self.watchdog_deadline = None;
         self.last = None;
-        self.leave_to_wait_prm(now, FailSafeReason::LeftDataExchange);
+        self.release(now);
     }
 
     /// Whether Set_Slave_Add is refused from now on.
@@ -384,6 +380,11 @@ impl<A: Application> Slave<A> {
     /// no watchdog, as if the Set_Prm had been refused.
     pub fn refuse_parameters(&mut self, now: Instant) {
         self.prm_fault = true;
+        self.release(now);
+    }
+
+    /// Back to Wait_Prm with no owner, no lock and no watchdog.
+    fn release(&mut self, now: Instant) {
         self.owner = None;
         self.locked = false;
         self.watchdog_micros = None;

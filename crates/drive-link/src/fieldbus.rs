@@ -62,7 +62,7 @@ pub const MAPPED_WORDS: usize = 8;
 
 /// The drive's register of parameter 51.`index`.
 pub const fn register(index: u8) -> u16 {
-    0x5100 | ((index / 10) << 4 | index % 10) as u16
+    0x5100 | (((index / 10) << 4) | (index % 10)) as u16
 }
 
 /// The index of a group register, if `register` is one of the group's.

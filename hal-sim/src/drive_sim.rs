@@ -458,7 +458,9 @@ impl DriveSim {
 fn fieldbus_value_valid(index: u8, value: u16) -> bool {
     match index {
         fb::NODE_ADDRESS => value <= u16::from(dp_consts::MAX_STATION_ADDRESS),
-        fb::BAUD_RATE => fieldbus::BAUD_RATE_KBIT.contains(&value),
+        fb::BAUD_RATE => dp_consts::Baud::ALL
+            .iter()
+            .any(|b| fieldbus::baud_rate_kbit(*b) == value),
         fb::PPO_TYPE => (1..=6).contains(&value),
         fb::PZD3_OUT..=fb::PZD10_IN => value <= 32767,
         fb::DP_MODE | fb::PAR_REFRESH => value <= 1,

@@ -118,13 +118,14 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
     }
 
     fn rate(&mut self, baud_index: u8) {
+        let Some(baud) = dp_consts::Baud::ALL.get(usize::from(baud_index)).copied() else {
+            return;
+        };
         // 963 counts the other way: 0 = 12M .. 9 = 9.6k (the SPC3's code).
-        self.params_mut().baud_code = u16::from(9u8.saturating_sub(baud_index));
-        if let Some(kbit) = fieldbus::BAUD_RATE_KBIT.get(usize::from(baud_index)) {
-            self.drive_mut()
-                .fieldbus_mut()
-                .show(fieldbus::index::BAUD_RATE, *kbit);
-        }
+        self.params_mut().baud_code = u16::from(baud.spc3_code());
+        self.drive_mut()
+            .fieldbus_mut()
+            .show(fieldbus::index::BAUD_RATE, fieldbus::baud_rate_kbit(baud));
     }
 
     fn requested_station(&mut self) -> Option<u16> {

@@ -28,6 +28,7 @@
 //!   settings.
 
 use crate::{Op, Outcome};
+use dp_consts::Baud;
 use profidrive::drive::DriveError;
 
 /// Parameter indices of the group.
@@ -53,8 +54,10 @@ pub const DP_MODE_DPV0: u16 = 0;
 /// 51.01's value for this adapter. Seed 004 shows the type as text ("PROFIBUS DP"); the number
 /// is this link's choice, documented with the drive simulator.
 pub const MODULE_TYPE_PROFIBUS_DP: u16 = 1;
-/// 51.03's values, kbit/s, by the rate index of `dp_consts::Baud` (9.6 kbit/s first).
-pub const BAUD_RATE_KBIT: [u16; 10] = [9, 19, 45, 93, 187, 500, 1500, 3000, 6000, 12000];
+/// 51.03's value for a rate: kbit/s, the fraction dropped (seed 004 shows 187.5 kbit/s as 187).
+pub const fn baud_rate_kbit(baud: Baud) -> u16 {
+    (baud.bits_per_second() / 1000) as u16
+}
 /// How often 51.27 is read: a refresh takes effect within this time (plus the read-back).
 pub const REFRESH_POLL_US: u64 = 500_000;
 /// PZD3 .. PZD10: the mapped words the group holds.
@@ -323,6 +326,12 @@ impl FieldbusGroup {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn baud_rates_as_seed_004_table_5_shows_them() {
+        let shown = Baud::ALL.map(baud_rate_kbit);
+        assert_eq!(shown, [9, 19, 45, 93, 187, 500, 1500, 3000, 6000, 12000]);
+    }
 
     #[test]
     fn registers_are_the_index_in_decimal_digits() {

@@ -22,6 +22,7 @@ static RECEIVED: AtomicU32 = AtomicU32::new(0);
 static LINE_ERROR: AtomicBool = AtomicBool::new(false);
 
 /// Bytes the drive interrupt has received since reset.
+#[cfg_attr(not(feature = "sim"), allow(dead_code))]
 pub fn received() -> u32 {
     RECEIVED.load(Ordering::Acquire)
 }

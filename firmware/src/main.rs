@@ -1,18 +1,21 @@
 //! The adapter's firmware: a thin RTIC shell around `crates/adapter`.
 //!
 //! ```text
-//! UART (link) ─IRQ─► bytes ─► bbqueue ─► `link` task: COBS frames ─► postcard ToAdapter
-//!    ▲                                          │ Adapter::on_message (fdl, dp-slave, app)
-//!    └──────────── FromAdapter::Reply ◄─────────┘ + turnaround cycles
+//! UART (link) ─IRQ─► bytes ─► bbqueue ─► `link` task: COBS frames ─► postcard ToAdapter event
+//!    ▲                                          │ Adapter::handle (fdl, dp-slave, app)
+//!    └──── FromAdapter writes (registers, inputs, diagnosis, configuration, status)
 //! ```
-//! The hardware task only moves bytes and wakes the software task; every protocol decision is
-//! in the logic crates. Each message gets exactly one reply, so the queue holds one frame.
+//! The transceiver answers the bus by itself from the buffers the firmware writes; the
+//! firmware sees only the events that need its decision (Set_Prm, Chk_Cfg, Global_Control,
+//! Set_Slave_Add, new outputs, the watchdog's expiry, its wake-up). The hardware task only
+//! moves bytes and wakes the software task; every protocol decision is in the logic crates.
 //!
 //! The drive link (UART1 / USART2) is interrupt-driven too: its interrupt moves bytes between
 //! the UART and two queues ([`drive_uart`]); the drive application's Modbus master runs in the
-//! `link` task after each message, and never waits for the drive. Under hal-sim a Tick says
-//! how many drive bytes have arrived; the task waits for them first, so the drive link runs
-//! on simulated time and repeats run to run.
+//! `link` task after each event, and never waits for the drive. On the QEMU board (feature
+//! `sim`) hal-sim says how many drive bytes have arrived (a simulation-only message); the task
+//! waits for them first, so the drive link runs on simulated time and repeats run to run, and
+//! it reports its instruction counts after each event, which hal-sim turns into board time.
 #![no_std]
 #![no_main]
 
@@ -26,8 +29,8 @@ use defmt_rtt as _;
 #[cfg(feature = "lm3s6965")]
 use defmt_semihosting as _;
 
-/// Bytes the link queue holds: two maximal frames.
-const LINK_QUEUE_LEN: usize = 2 * dp_link::MAX_FRAME_LEN;
+/// Bytes the link queue holds: four maximal frames (events queue while the drive cycle runs).
+const LINK_QUEUE_LEN: usize = 4 * dp_link::MAX_FRAME_LEN;
 
 /// The drive application on the drive UART.
 type DriveApp = adapter::DriveApp<drive_uart::DriveUart>;
@@ -59,7 +62,7 @@ macro_rules! adapter_app {
         #[rtic::app(device = crate::board::pac, dispatchers = [$dispatcher])]
         mod app {
             use crate::board;
-            use adapter::Adapter;
+            use adapter::{Adapter, Out};
             use bbqueue::{BBBuffer, Consumer, Producer};
             use core::sync::atomic::{AtomicU32, Ordering};
             use defmt::{info, warn};
@@ -129,7 +132,8 @@ macro_rules! adapter_app {
                             grant[0] = byte;
                             grant.commit(1);
                         }
-                        // Cannot happen in the lockstep protocol; dropped bytes fail the frame.
+                        // Four frames behind: a dropped byte fails its frame, which the
+                        // deframer drops; the transceiver's registers wait for a newer event.
                         Err(_) => {}
                     }
                 }
@@ -174,18 +178,18 @@ macro_rules! adapter_app {
             }
 
             fn handle(slot: &mut Option<Adapter<crate::DriveApp>>, tx: &mut board::Uart, message: &ToAdapter) {
-                let start = FRAME_END.load(Ordering::Relaxed);
-                if let ToAdapter::Tick { drive_rx_bytes, .. } = *message {
-                    // The simulated drive's bytes were sent before this Tick; they may still
-                    // be on their way through QEMU. The wait is not in the cycle count: on a
-                    // board the bytes are there when the link's time says so.
+                // Instructions are counted from the frame's end, for hal-sim's board time.
+                #[cfg(feature = "sim")]
+                #[allow(unused_mut)]
+                let mut start = FRAME_END.load(Ordering::Relaxed);
+                #[cfg(feature = "sim")]
+                if let ToAdapter::Sim(dp_link::sim::SimToAdapter::DriveBytes { drive_rx_bytes, .. }) = *message {
+                    // The simulated drive's bytes were sent before this message; they may
+                    // still be on their way through QEMU. The wait is not counted: on a board
+                    // the drive UART's interrupt starts this work when they are there.
                     while (crate::drive_uart::received().wrapping_sub(drive_rx_bytes) as i32) < 0 {}
+                    start = board::timestamp();
                 }
-                let start = if matches!(message, ToAdapter::Tick { .. }) {
-                    board::timestamp()
-                } else {
-                    start
-                };
                 if let ToAdapter::Boot { switch, nv, .. } = *message {
                     let app = adapter::drive_app(crate::drive_uart::DriveUart::new());
                     let adapter = Adapter::boot(switch, nv, app);
@@ -197,30 +201,29 @@ macro_rules! adapter_app {
                     warn!("link: message before Boot");
                     return;
                 };
-                let before = adapter.slave().state();
-                let (response, status) = adapter.on_message(message);
-                // The response is ready: the log line below is not part of the turnaround.
-                let cycles = board::cycles_since(start);
-                if adapter::link_state(before) != status.state {
-                    info!("slave: {} -> {}", before, status.state);
+                let (before, address) = (adapter.slave().state(), adapter.slave().address());
+                adapter.handle(message, &mut |out| match out {
+                    Out::Write(write) => send(tx, &write),
+                    Out::DecisionWritten => {
+                        #[cfg(feature = "sim")]
+                        send(tx, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Sent {
+                            instructions: board::cycles_since(start),
+                        }));
+                    }
+                });
+                let (state, new_address) = (adapter.slave().state(), adapter.slave().address());
+                #[cfg(feature = "sim")]
+                send(tx, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Done {
+                    instructions: board::cycles_since(start),
+                    drive_tx_bytes: adapter::Background::drive_tx_bytes(adapter.app()),
+                }));
+                // The logs after the work they describe: not part of the counts.
+                if before != state {
+                    info!("slave: {} -> {}", adapter::link_state(before), adapter::link_state(state));
                 }
-                let reply = FromAdapter::Reply {
-                    seq: message.seq(),
-                    response,
-                    cycles,
-                    status,
-                };
-                send(tx, &reply);
-                // The drive link's turn, after the response is on its way.
-                let (before, address) = (adapter.slave().state(), status.address);
-                let status = adapter.after_message(message);
-                if adapter::link_state(before) != status.state {
-                    info!("slave: {} -> {}", before, status.state);
+                if new_address != address {
+                    info!("slave: address {=u8} -> {=u8}", address, new_address);
                 }
-                if status.address != address {
-                    info!("slave: address {=u8} -> {=u8}, from the drive's 51.02", address, status.address);
-                }
-                send(tx, &FromAdapter::Done { seq: message.seq(), status });
             }
 
             fn send(tx: &mut board::Uart, message: &FromAdapter) {

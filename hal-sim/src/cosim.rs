@@ -6,22 +6,25 @@
 //!      └── MasterPhy (UART RX) ◄────────────────────┤
 //!                                                   ▼
 //!                     transceiver model (autobaud, delimiter, TX after min TSDR)
-//!                        │ good telegram to our address            ▲ response at
-//!                        ▼                                         │ end + latency + cycles
-//!                     Firmware (QEMU or in-process) ── Reply ──────┘
+//!                        │ good telegram             ▲ the responder's answer, at once
+//!                        ▼                           │ (from the buffers the firmware wrote)
+//!                     Bridge: responder ◄─ writes ─ link ◄─ Firmware (QEMU or in-process)
+//!                                       ── events ─► link ─►
 //! ```
-//! Simulated time stops while the firmware works: the firmware's turnaround enters only as the
-//! cycle count it reports, converted at the board's declared clock. Time is ticks of the
-//! transceiver's sample clock; the firmware sees it as microseconds in each message.
+//! Simulated time stops while the firmware works: its time enters as the instructions it
+//! reports, at the production board's clock, and the link's bytes at the board's link rate
+//! ([`crate::bridge`]). Time is ticks of the transceiver's sample clock; the firmware sees it
+//! as microseconds in each event.
 
+use crate::bridge::Bridge;
 use crate::drive_sim::DriveSim;
-use crate::drive_wire::DriveWire;
-use crate::firmware::{Firmware, Reply};
+use crate::firmware::Firmware;
 use crate::master::MasterPhy;
 use dp_consts::Baud;
-use dp_link::{Leds, NvRecord, SlaveState, Status, ToAdapter};
+use dp_link::NvRecord;
 use dp_phy::bus::{Bus, FaultInjector};
 use dp_phy::delimiter::Status as TelegramStatus;
+use dp_phy::responder::DECISION_CLOCKS;
 use dp_phy::{BaudState, BitTiming, Tick, Transceiver};
 use profidrive::codes::FunctionCode;
 use profidrive::drive::PZD1_LINK_ERROR;
@@ -34,10 +37,6 @@ use std::io;
 
 /// The transceiver's sample clock.
 pub const CLOCK_HZ: u32 = 48_000_000;
-/// The production board's clock, at which the firmware's cycles are counted.
-pub const DECLARED_CLOCK_HZ: u32 = 72_000_000;
-/// One way across the transceiver-to-MCU interface (a dual-port buffer and an interrupt).
-pub const LINK_LATENCY_NS: u64 = 1_000;
 
 /// What the master does and how it sees the slave.
 #[derive(Clone, Debug)]
@@ -141,7 +140,7 @@ impl Master {
             // per master started, for the length of a test run.
             user_parameters: Some(setup.user_prm.clone().leak()),
             config: Some(setup.config.clone().leak()),
-            max_tsdr: setup.baud.default_max_tsdr_bits(),
+            max_tsdr: setup.baud.adapter_max_tsdr_bits(),
             fail_safe: true,
             ..Default::default()
         };
@@ -233,13 +232,21 @@ pub struct Figures {
     pub locked: Option<Baud>,
     /// Telegrams the master started before the adapter delivered its first good one.
     pub lost_before_lock: Option<u64>,
+    /// Telegrams the responder handed to the firmware.
     pub forwarded: u64,
     pub responses: u64,
-    pub worst_cycles: u32,
     /// The longest TSDR on the wire, in bit times, and the rate it was seen at.
     pub worst_tsdr_bits: u64,
     pub worst_tsdr_baud: Option<Baud>,
-    /// Responses that started later than max TSDR.
+    /// The longest TSDR at each rate, in bit times.
+    pub worst_tsdr_by_rate: std::collections::BTreeMap<Baud, u64>,
+    /// From new outputs arriving at the MCU to the firmware's decision back in the
+    /// transceiver (its inputs included): the worst and the median, in ns.
+    pub worst_outputs_to_inputs_ns: Option<u64>,
+    pub median_outputs_to_inputs_ns: Option<u64>,
+    /// The master's Data_Exchange cycle to the adapter: the median interval, in ns.
+    pub median_dp_cycle_ns: Option<u64>,
+    /// Responses that started later than the MaxTsdr the adapter's GSD declares.
     pub late_responses: u64,
     /// Telegrams the transceiver delivered with an error (never forwarded).
     pub bad_telegrams: u64,
@@ -252,21 +259,16 @@ pub struct CoSim<F: Firmware> {
     pub bus: Bus,
     pub master: Option<Master>,
     pub adapter: Transceiver,
-    pub firmware: F,
-    /// The board's address switch.
-    pub switch: u8,
-    /// The emulated non-volatile storage.
-    pub nv: Option<NvRecord>,
-    pub status: Status,
+    /// The transceiver's MCU side: responder, link, firmware, storage, drive.
+    pub bridge: Bridge<F>,
     pub figures: Figures,
-    /// The drive link and the drive behind the adapter.
-    pub drive: DriveWire,
     /// Data exchange as the adapter saw it (recorded while `log_dx` is set).
     pub log_dx: bool,
     pub dx: DxLog,
-    /// What happened, in order, for the run's report: state and LED changes, locks, storage.
-    pub events: Vec<String>,
-    seq: u32,
+    /// The end of each new Data_Exchange request the responder took.
+    dx_request_ends: Vec<Tick>,
+    /// Set frequencies every master of this run sent (the echo program).
+    echo_history: std::collections::BTreeSet<u16>,
     pending: Option<Pending>,
     next_master_poll: Tick,
     last_baud_state: BaudState,
@@ -280,9 +282,12 @@ fn us_from_ticks(ticks: Tick) -> u64 {
     ticks / (CLOCK_HZ as u64 / 1_000_000)
 }
 
-/// The firmware's cycles at the production board's clock, in whole microseconds.
-fn cycles_us(cycles: u32) -> u64 {
-    u64::from(cycles) / (DECLARED_CLOCK_HZ as u64 / 1_000_000)
+fn ns_from_ticks(ticks: Tick) -> u64 {
+    ticks * 1000 / (CLOCK_HZ as u64 / 1_000_000)
+}
+
+fn ticks_from_ns(ns: u64) -> Tick {
+    (ns * (CLOCK_HZ as u64 / 1_000_000)).div_ceil(1000)
 }
 
 /// Data exchange as the adapter saw it: each change of the outputs (at the end of the
@@ -305,75 +310,71 @@ impl<F: Firmware> CoSim<F> {
                 clock_hz: CLOCK_HZ,
                 ..dp_phy::Config::default()
             }),
-            firmware,
-            switch,
-            nv,
-            status: Status {
-                address: 0,
-                state: SlaveState::PowerOn,
-                min_tsdr_bits: dp_consts::MIN_TSDR_BITS,
-                leds: Leds::default(),
-                nv_write: None,
-                poll_at_us: None,
-                drive_tx_bytes: 0,
-                drive_link_error: 0,
-                outputs_applied: 0,
-                fail_safes: 0,
-                malformed_telegrams: 0,
-            },
+            bridge: Bridge::new(firmware, CLOCK_HZ, switch, nv),
             figures: Figures::default(),
-            drive: DriveWire::default(),
             log_dx: false,
             dx: DxLog::default(),
-            events: Vec::new(),
-            seq: 0,
+            dx_request_ends: Vec::new(),
+            echo_history: Default::default(),
             pending: None,
             next_master_poll: 0,
             last_baud_state: BaudState::Searching,
         };
-        sim.boot()?;
+        sim.bridge.boot(0);
+        sim.settle()?;
         Ok(sim)
     }
 
-    fn boot(&mut self) -> io::Result<()> {
-        let message = ToAdapter::Boot {
-            seq: self.next_seq(),
-            now_us: us_from_ticks(self.now),
-            switch: self.switch,
-            nv: self.nv,
-        };
-        self.event(format!(
-            "power-up: switch {:02}, storage {:?}",
-            self.switch, self.nv
-        ));
-        let reply = self.firmware.exchange(&message)?;
-        self.apply(&reply, self.now_us())
+    /// Runs until the firmware has handled the power-up and its writes are in the transceiver
+    /// (a board takes that long before it can answer anything but FDL_Status).
+    fn settle(&mut self) -> io::Result<()> {
+        let end = self.now + ticks_from_us(10_000);
+        self.run_until(end, |s| s.bridge.idle()).map(|_| ())
     }
 
     /// A power cycle of the board: the firmware restarts from the switch and the storage.
     pub fn power_cycle(&mut self) -> io::Result<()> {
-        self.event("power cycle".into());
-        self.firmware.restart()?;
+        self.bridge.power_cycle(ns_from_ticks(self.now))?;
         self.adapter = Transceiver::reset_at(self.adapter.config(), self.now);
         self.pending = None;
         self.last_baud_state = BaudState::Searching;
-        self.drive.adapter_restarted();
-        self.boot()
-    }
-
-    fn next_seq(&mut self) -> u32 {
-        self.seq = self.seq.wrapping_add(1);
-        self.seq
+        self.settle()
     }
 
     fn event(&mut self, text: String) {
-        self.events.push(text);
+        self.bridge.events.push(text);
+    }
+
+    /// What happened, in order, for the run's report: state and LED changes, locks, storage.
+    pub fn events(&self) -> &[String] {
+        &self.bridge.events
+    }
+
+    /// The figures of the run so far, the link's and the master's cycle included.
+    pub fn figures(&self) -> Figures {
+        let mut f = self.figures.clone();
+        let mut o2i = self.bridge.figures.outputs_to_inputs_ns.clone();
+        o2i.sort_unstable();
+        f.worst_outputs_to_inputs_ns = o2i.last().copied();
+        f.median_outputs_to_inputs_ns = o2i.get(o2i.len() / 2).copied();
+        let mut cycles: Vec<u64> = self
+            .dx_request_ends
+            .windows(2)
+            .map(|w| ns_from_ticks(w[1] - w[0]))
+            .collect();
+        cycles.sort_unstable();
+        f.median_dp_cycle_ns = cycles.get(cycles.len() / 2).copied();
+        f
     }
 
     /// Starts (or replaces) the DP master.
     pub fn start_master(&mut self, setup: MasterSetup) {
         self.event(format!("master: {} at {}", setup.address, setup.baud));
-        self.master = Some(Master::new(setup, self.now));
+        self.remember_echo();
+        let mut master = Master::new(setup, self.now);
+        // The drive still holds what earlier masters sent: not "a value never sent".
+        master.sent.clone_from(&self.echo_history);
+        self.master = Some(master);
         self.next_master_poll = self.now;
     }
 
@@ -403,9 +404,17 @@ impl<F: Firmware> CoSim<F> {
         Ok(answered.then_some(answer))
     }
 
+    /// Keeps the set frequencies the master sent, for the next master's echo check.
+    fn remember_echo(&mut self) {
+        if let Some(m) = &self.master {
+            self.echo_history.extend(m.sent.iter().copied());
+        }
+    }
+
     /// Silences the master (it disappears from the bus).
     pub fn stop_master(&mut self) {
         self.event("master: gone".into());
+        self.remember_echo();
         self.master = None;
     }
 
@@ -416,63 +425,7 @@ impl<F: Firmware> CoSim<F> {
     /// The drive as it is now.
     pub fn drive_now(&mut self) -> &mut DriveSim {
         let now = self.now_us();
-        self.drive.advance_to(now);
-        &mut self.drive.drive
-    }
-
-    /// Takes a reply handed over at `t_us`: its status, and the bytes it sent to the drive.
-    fn apply(&mut self, reply: &Reply, t_us: u64) -> io::Result<()> {
-        self.apply_status(reply);
-        self.drive
-            .collect(&mut self.firmware, reply.status.drive_tx_bytes, t_us)
-    }
-
-    /// Hands the drive's answers that are complete to the firmware, each with its Tick.
-    fn deliver_drive_answers(&mut self) -> io::Result<()> {
-        while let Some((at, bytes)) = self.drive.take_delivery(self.now_us()) {
-            self.firmware.drive_send(&bytes)?;
-            let message = ToAdapter::Tick {
-                seq: self.next_seq(),
-                now_us: at,
-                drive_rx_bytes: self.drive.delivered,
-            };
-            let reply = self.firmware.exchange(&message)?;
-            self.apply(&reply, at + cycles_us(reply.cycles))?;
-        }
-        Ok(())
-    }
-
-    fn apply_status(&mut self, reply: &Reply) {
-        let old = self.status;
-        let new = reply.status;
-        if new.drive_link_error != old.drive_link_error {
-            self.event(match new.drive_link_error {
-                0 => "drive link: working".into(),
-                e => format!("drive link: error 0x{e:02X}"),
-            });
-        }
-        if new.state != old.state {
-            self.event(format!("slave: {:?} -> {:?}", old.state, new.state));
-        }
-        if new.address != old.address {
-            self.event(format!("slave address: {}", new.address));
-        }
-        if new.leds != old.leds {
-            let l = new.leds;
-            self.event(format!(
-                "leds: net {:?}, run {:?}, tx {:?}, rx {:?}, error {:?}, online {:?}, offline {:?}",
-                l.net, l.run, l.tx, l.rx, l.error, l.online, l.offline
-            ));
-        }
-        if let Some(record) = new.nv_write {
-            self.nv = Some(record);
-            self.event(format!(
-                "storage: address {}, no_add_chg {}",
-                record.address, record.no_add_chg
-            ));
-        }
-        self.status = new;
-        self.adapter.set_min_tsdr(new.min_tsdr_bits);
+        self.bridge.drive_at(now)
     }
 
     /// Runs for `duration_us` of bus time.
@@ -515,29 +468,16 @@ impl<F: Firmware> CoSim<F> {
             }
             self.next_master_poll = self.now + self.master_poll_ticks();
         }
-        self.deliver_drive_answers()?;
-        if let Some(at) = self.status.poll_at_us {
-            if self.now_us() >= at {
-                let now_us = self.now_us();
-                let message = ToAdapter::Tick {
-                    seq: self.next_seq(),
-                    now_us,
-                    drive_rx_bytes: self.drive.delivered,
-                };
-                let reply = self.firmware.exchange(&message)?;
-                self.apply(&reply, now_us + cycles_us(reply.cycles))?;
-            }
-        }
+        self.bridge.poll(ns_from_ticks(self.now))?;
+        self.adapter
+            .set_min_tsdr(self.bridge.responder.min_tsdr_bits());
         let master_drive = self.master.as_ref().and_then(|m| m.phy.tx.drive());
         let adapter_drive = self.adapter.drive();
         let line = self.bus.resolve(self.now, [master_drive, adapter_drive]);
         let mut limit = end - self.now;
         limit = limit.min(self.next_master_poll.saturating_sub(self.now).max(1));
-        for at in [self.status.poll_at_us, self.drive.next_delivery_us()]
-            .into_iter()
-            .flatten()
-        {
-            limit = limit.min(ticks_from_us(at).saturating_sub(self.now).max(1));
+        if let Some(at) = self.bridge.next_ns() {
+            limit = limit.min(ticks_from_ns(at).saturating_sub(self.now).max(1));
         }
         let quiet = match &self.master {
             Some(m) => m.phy.tx.quiet_for().min(m.phy.rx.quiet_for(line)),
@@ -614,7 +554,8 @@ impl<F: Firmware> CoSim<F> {
             .baud()
             .map_or(1, |b| b.bits_per_second() as u64);
         let bits_us = |bits: u64| (bits * 1_000_000).div_ceil(bps);
-        let start = end_us + turnaround_us.max(bits_us(u64::from(self.status.min_tsdr_bits)));
+        let min_tsdr = u64::from(self.bridge.responder.min_tsdr_bits());
+        let start = end_us + turnaround_us.max(bits_us(min_tsdr));
         let done = start + bits_us(11 * response.len() as u64);
         if self.dx.inputs.last().map(|(_, i)| i) != Some(&inputs) {
             self.dx.inputs.push((done, inputs));
@@ -644,7 +585,11 @@ impl<F: Firmware> CoSim<F> {
             self.figures.worst_tsdr_baud = baud;
         }
         if let Some(b) = baud {
-            if bits > u64::from(b.default_max_tsdr_bits()) {
+            let worst = self.figures.worst_tsdr_by_rate.entry(b).or_default();
+            *worst = (*worst).max(bits);
+        }
+        if let Some(b) = baud {
+            if bits > u64::from(b.adapter_max_tsdr_bits()) {
                 self.figures.late_responses += 1;
             }
         }
@@ -662,46 +607,32 @@ impl<F: Firmware> CoSim<F> {
         }
         let bytes = t.bytes().to_vec();
         let end = t.end;
-        // The transceiver filters by address as a DP ASIC does: tokens, acknowledgements and
-        // telegrams for other stations never reach the MCU.
-        let ours = match fdl::Telegram::new_checked(&bytes[..]) {
-            Ok(view) if view.has_header() => {
-                let da = view.destination();
-                da == self.status.address || da == dp_consts::BROADCAST_ADDRESS
-            }
-            _ => false,
-        };
-        if !ours {
-            return Ok(());
-        }
         let baud = self
             .adapter
             .baud_state()
             .baud()
             .map_or(0, |b| b.index() as u8);
-        let message = ToAdapter::Telegram {
-            seq: self.next_seq(),
-            now_us: us_from_ticks(end),
-            baud,
-            bytes: &bytes,
-        };
-        self.figures.forwarded += 1;
-        let reply = self.firmware.exchange(&message)?;
-        let end_us = us_from_ticks(end);
-        self.apply(&reply, end_us + cycles_us(reply.cycles))?;
-        if self.log_dx {
-            let turnaround_us = cycles_us(reply.cycles) + 2 * LINK_LATENCY_NS / 1000;
-            self.log_data_exchange(end_us, turnaround_us, &bytes, &reply.response);
+        let forwarded = self.bridge.figures.events;
+        let response = self.bridge.telegram(ns_from_ticks(end), baud, &bytes);
+        if self.bridge.figures.events > forwarded {
+            self.figures.forwarded += 1;
         }
-        // The turnaround that matters is a request's: boot and ticks are not on the bus.
-        self.figures.worst_cycles = self.figures.worst_cycles.max(reply.cycles);
-        if !reply.response.is_empty() {
-            self.figures.responses += 1;
-            let turnaround = u64::from(reply.cycles) * CLOCK_HZ as u64 / DECLARED_CLOCK_HZ as u64
-                + 2 * LINK_LATENCY_NS * CLOCK_HZ as u64 / 1_000_000_000;
-            if self.adapter.respond(&reply.response, end + turnaround) {
-                self.pending = Some(Pending { request_end: end });
-            }
+        let data_exchange = matches!(
+            fdl::Repr::parse_bytes(&bytes),
+            Ok((fdl::Repr::Data(d), _)) if d.dsap.is_none() && d.da == self.bridge.status.address
+        );
+        if data_exchange {
+            self.dx_request_ends.push(end);
+        }
+        let Some(response) = response else {
+            return Ok(());
+        };
+        if self.log_dx {
+            self.log_data_exchange(us_from_ticks(end), 0, &bytes, &response);
+        }
+        self.figures.responses += 1;
+        if self.adapter.respond(&response, end + DECISION_CLOCKS) {
+            self.pending = Some(Pending { request_end: end });
         }
         Ok(())
     }

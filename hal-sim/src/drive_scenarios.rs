@@ -291,8 +291,8 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
             .is_some_and(|f| f & profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY != 0),
     );
     let end = sim.now + LED_ACTIVITY_US * TICKS_PER_US * 3 / 2;
-    sim.run_until(end, |s| s.status.leds.rx == Led::Off)?;
-    let leds = sim.status.leds;
+    sim.run_until(end, |s| s.bridge.status.leds.rx == Led::Off)?;
+    let leds = sim.bridge.status.leds;
     check(
         c,
         format!(
@@ -315,7 +315,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     let back = wait(sim, 50_000, |i, _| {
         i[4] & 0xFF00 != 0xC000 && i[4] & status::RUNNING != 0
     })?;
-    let leds = sim.status.leds;
+    let leds = sim.bridge.status.leds;
     check(
         c,
         format!(
@@ -613,19 +613,19 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     check(
         c,
         "switch at 8: 51.02 = 20 and a refresh leave the adapter at 8, and 51.02 shows 8 again",
-        kept && sim.status.address == SWITCH_ADDRESS
+        kept && sim.bridge.status.address == SWITCH_ADDRESS
             && sim.master.as_mut().is_some_and(|m| m.running()),
     );
 
     // The switch at 0: the address is the stored one until the drive sets another.
     sim.stop_master();
-    sim.switch = 0;
+    sim.bridge.switch = 0;
     sim.power_cycle()?;
     let shown = wait_drive(sim, 100_000, |d| group(d, fb::NODE_ADDRESS) == 126)?;
     check(
         c,
         "switch 0, empty storage: address 126, and 51.02 shows it",
-        shown && sim.status.address == 126,
+        shown && sim.bridge.status.address == 126,
     );
     let _ = sim
         .drive_now()
@@ -636,7 +636,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     let t0 = sim.now_us();
     let moved = wait_drive(sim, 1_000_000, |d| {
         group(d, fb::PAR_REFRESH) == fieldbus::DONE
-    })? && sim.status.address == 30;
+    })? && sim.bridge.status.address == 30;
     check(
         c,
         format!(
@@ -648,7 +648,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     check(
         c,
         "the storage keeps address 30",
-        sim.nv.is_some_and(|r| r.address == 30),
+        sim.bridge.nv.is_some_and(|r| r.address == 30),
     );
     let mut at_30 = setup(Ppo::Ppo2, prm);
     at_30.slave_address = 30;
@@ -792,7 +792,7 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
             out[pkw_words + 1] = value;
             put(sim, &out);
             let outputs_before = sim.dx.outputs.len();
-            let applied_before = sim.drive.applied.len();
+            let applied_before = sim.bridge.drive.applied.len();
             wait(sim, 50_000, |_, d| {
                 d.read_register(SET_FREQUENCY) == Ok(value)
             })?;
@@ -800,7 +800,7 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
                 .iter()
                 .find(|(_, o)| words(o).get(pkw_words + 1) == Some(&value))
                 .map(|(t, _)| *t);
-            let applied = sim.drive.applied[applied_before..]
+            let applied = sim.bridge.drive.applied[applied_before..]
                 .iter()
                 .find(|a| a.words.get(1) == Some(&value))
                 .map(|a| a.at_us);
@@ -817,7 +817,7 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
             let warn = n % 2 == 0;
             let changed_at = sim.now_us();
             let inputs_before = sim.dx.inputs.len();
-            let answered_before = sim.drive.answered.len();
+            let answered_before = sim.bridge.drive.answered.len();
             sim.drive_now().set_warning(warn.then_some(36));
             wait(sim, 50_000, |i, _| {
                 (i[pkw_words] & status::WARNING != 0) == warn
@@ -830,7 +830,7 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
                         .is_some_and(|sw| (sw & status::WARNING != 0) == warn)
                 })
                 .map(|(t, _)| *t);
-            let at_adapter = sim.drive.answered[answered_before..]
+            let at_adapter = sim.bridge.drive.answered[answered_before..]
                 .iter()
                 .find(|a| {
                     a.words

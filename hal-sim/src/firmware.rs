@@ -1,17 +1,22 @@
 //! The firmware behind the transceiver: the real image under QEMU, or the same logic crate
 //! run in-process for fast host tests of the simulator itself.
 //!
-//! Both speak the link protocol of `dp-link`: one [`ToAdapter`] message, one reply. The QEMU
-//! side is a localhost socket that QEMU's UART0 connects to (`-serial tcp:..`); QEMU's stdout
-//! carries only the defmt stream (semihosting), collected for the caller to decode.
+//! Both speak the link protocol of `dp-link`: the simulator hands over one event
+//! ([`ToAdapter`]) and collects what the firmware writes while it handles it ([`Handled`]):
+//! the product's writes for the transceiver, each with the instructions the firmware had run
+//! when it sent it (the simulation-only `Sent` and `Done` marks), so that the caller places
+//! them in board time. The QEMU side is a localhost socket that QEMU's UART0 connects to;
+//! QEMU's stdout carries only the defmt stream (semihosting), collected for the caller to
+//! decode.
 //!
 //! The drive UART is a second byte stream (QEMU's UART1 on a second socket). The caller reads
-//! exactly the bytes a reply's status says were sent, and writes the drive's answers before
-//! the Tick that tells the firmware how many have arrived: the lockstep that keeps the drive
-//! link on simulated time.
+//! exactly the bytes [`Handled::drive_tx_bytes`] says were sent, and writes the drive's answers
+//! before the `DriveBytes` message that tells the firmware how many have arrived: the lockstep
+//! that keeps the drive link on simulated time.
 
-use dp_link::{Deframer, Fed, FromAdapter, Status, ToAdapter, MAX_FRAME_LEN};
-use std::io::{self, Read, Write};
+use dp_link::sim::SimFromAdapter;
+use dp_link::{FromAdapter, Regs, Status, ToAdapter, MAX_FRAME_LEN};
+use std::io::{self, Read, Write as _};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -19,33 +24,65 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-/// A reply, owned.
+/// A product write from the firmware to the transceiver, owned.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Reply {
-    pub seq: u32,
-    pub response: Vec<u8>,
-    pub cycles: u32,
-    pub status: Status,
+pub enum Write {
+    Regs(Regs),
+    Inputs(Vec<u8>),
+    Diag { new: bool, bytes: Vec<u8> },
+    Cfg(Vec<u8>),
+    Status(Status),
 }
 
-/// The status of a message's Done, with the storage write its Reply may have carried.
-fn merged(reply: Status, done: Status) -> Status {
-    Status {
-        nv_write: reply.nv_write.or(done.nv_write),
-        ..done
+impl Write {
+    /// Owns a product message; `None` for the simulation's own and for Ready.
+    pub fn from_message(message: &FromAdapter) -> Option<Write> {
+        Some(match *message {
+            FromAdapter::Regs(r) => Write::Regs(r),
+            FromAdapter::Inputs(b) => Write::Inputs(b.to_vec()),
+            FromAdapter::Diag { new, bytes } => Write::Diag {
+                new,
+                bytes: bytes.to_vec(),
+            },
+            FromAdapter::Cfg(b) => Write::Cfg(b.to_vec()),
+            FromAdapter::Status(s) => Write::Status(s),
+            FromAdapter::Ready | FromAdapter::Sim(_) => return None,
+        })
+    }
+
+    pub fn as_message(&self) -> FromAdapter<'_> {
+        match self {
+            Write::Regs(r) => FromAdapter::Regs(*r),
+            Write::Inputs(b) => FromAdapter::Inputs(b),
+            Write::Diag { new, bytes } => FromAdapter::Diag { new: *new, bytes },
+            Write::Cfg(b) => FromAdapter::Cfg(b),
+            Write::Status(s) => FromAdapter::Status(*s),
+        }
+    }
+
+    /// Its bytes on the link (COBS frame included).
+    pub fn encoded_len(&self) -> usize {
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        dp_link::encode(&self.as_message(), &mut frame).map_or(MAX_FRAME_LEN, |f| f.len())
     }
 }
 
-/// What the firmware sends.
-enum Message {
-    Ready,
-    Reply(Reply),
-    Done(u32, Status),
+/// What the firmware did with one event.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Handled {
+    /// The writes in order, each with the instructions run when it was sent.
+    pub writes: Vec<(u32, Write)>,
+    /// How many of them carry the event's decision (the rest follow the drive cycle).
+    pub decision_writes: usize,
+    /// Instructions until the event was handled.
+    pub instructions: u32,
+    /// Bytes sent to the drive UART since power-up.
+    pub drive_tx_bytes: u32,
 }
 
-/// Something that answers link messages.
+/// Something that handles link events.
 pub trait Firmware {
-    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply>;
+    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled>;
 
     /// Power cycle: the firmware starts from reset (it then expects a Boot).
     fn restart(&mut self) -> io::Result<()>;
@@ -114,7 +151,7 @@ impl InProcess {
 }
 
 impl Firmware for InProcess {
-    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply> {
+    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled> {
         if let ToAdapter::Boot { switch, nv, .. } = *message {
             let app = adapter::drive_app(MemoryUart::default());
             self.adapter = Some(adapter::Adapter::boot(switch, nv, app));
@@ -123,15 +160,15 @@ impl Firmware for InProcess {
             .adapter
             .as_mut()
             .ok_or_else(|| io::Error::other("message before Boot"))?;
-        let (response, status) = adapter.on_message(message);
-        let response = response.to_vec();
-        let done = adapter.after_message(message);
-        Ok(Reply {
-            seq: message.seq(),
-            response,
-            cycles: 0,
-            status: merged(status, done),
-        })
+        let mut handled = Handled::default();
+        adapter.handle(message, &mut |out| match out {
+            adapter::Out::Write(write) => handled
+                .writes
+                .extend(Write::from_message(&write).map(|w| (0, w))),
+            adapter::Out::DecisionWritten => handled.decision_writes = handled.writes.len(),
+        });
+        handled.drive_tx_bytes = adapter::Background::drive_tx_bytes(adapter.app());
+        Ok(handled)
     }
 
     fn restart(&mut self) -> io::Result<()> {
@@ -168,7 +205,6 @@ pub struct Qemu {
     child: Child,
     link: TcpStream,
     drive: TcpStream,
-    deframer: Deframer,
     pending: Vec<u8>,
     defmt: Arc<Mutex<Vec<u8>>>,
     stdout_reader: Option<JoinHandle<()>>,
@@ -240,7 +276,6 @@ impl Qemu {
             child,
             link,
             drive,
-            deframer: Deframer::new(),
             pending: Vec::new(),
             defmt,
             stdout_reader: Some(stdout_reader),
@@ -292,88 +327,37 @@ impl Qemu {
 
     /// Waits for the firmware's Ready: its link is up.
     fn wait_ready(&mut self) -> io::Result<()> {
-        match self.read_message()? {
-            Message::Ready => Ok(()),
-            _ => Err(io::Error::other("a reply before Ready")),
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        match self.read_message(&mut frame)? {
+            Some(FromAdapter::Ready) => Ok(()),
+            _ => Err(io::Error::other("a message before Ready")),
         }
     }
 
-    /// A message's Reply and Done, as one reply.
-    fn read_reply(&mut self, seq: u32) -> io::Result<Reply> {
-        let mut reply = match self.read_message()? {
-            Message::Reply(reply) => reply,
-            Message::Ready => return Err(io::Error::other("Ready again: the firmware restarted")),
-            Message::Done(..) => return Err(io::Error::other("Done before the Reply")),
-        };
-        match self.read_message()? {
-            Message::Done(done_seq, status) if done_seq == seq => {
-                reply.status = merged(reply.status, status);
-                Ok(reply)
-            }
-            Message::Done(done_seq, _) => Err(io::Error::other(format!(
-                "Done {done_seq} after the Reply to message {seq}"
-            ))),
-            _ => Err(io::Error::other("a Reply without its Done")),
-        }
-    }
-
-    /// The next message.
-    fn read_message(&mut self) -> io::Result<Message> {
+    /// The next message, decoded into `frame`'s copy (`None`: a frame that did not decode).
+    fn read_message<'f>(
+        &mut self,
+        frame: &'f mut [u8; MAX_FRAME_LEN],
+    ) -> io::Result<Option<FromAdapter<'f>>> {
         let mut buf = [0u8; MAX_FRAME_LEN];
         loop {
-            let mut rest: &[u8] = &self.pending;
-            let mut found = None;
-            let mut consumed = 0;
-            loop {
-                let before = rest.len();
-                match self.deframer.feed::<FromAdapter>(rest) {
-                    Fed::Pending => {
-                        consumed += before;
-                        break;
-                    }
-                    Fed::Dropped(r) => {
-                        consumed += before - r.len();
-                        rest = r;
-                    }
-                    Fed::Message(FromAdapter::Ready, r) => {
-                        consumed += before - r.len();
-                        found = Some(Message::Ready);
-                        break;
-                    }
-                    Fed::Message(FromAdapter::Done { seq, status }, r) => {
-                        consumed += before - r.len();
-                        found = Some(Message::Done(seq, status));
-                        break;
-                    }
-                    Fed::Message(
-                        FromAdapter::Reply {
-                            seq,
-                            response,
-                            cycles,
-                            status,
-                        },
-                        r,
-                    ) => {
-                        consumed += before - r.len();
-                        found = Some(Message::Reply(Reply {
-                            seq,
-                            response: response.to_vec(),
-                            cycles,
-                            status,
-                        }));
-                        break;
-                    }
+            // One whole frame (up to its zero) out of what arrived, if there is one.
+            if let Some(end) = self.pending.iter().position(|b| *b == 0) {
+                let len = end + 1;
+                if len > MAX_FRAME_LEN {
+                    self.pending.drain(..len);
+                    return Ok(None);
                 }
-            }
-            self.pending.drain(..consumed);
-            if let Some(message) = found {
-                return Ok(message);
+                frame[..len].copy_from_slice(&self.pending[..len]);
+                self.pending.drain(..len);
+                // Decoded in place: the message borrows the caller's frame.
+                return Ok(postcard::from_bytes_cobs::<FromAdapter>(&mut frame[..len]).ok());
             }
             let n = self.link.read(&mut buf).map_err(|e| {
                 io::Error::new(
                     e.kind(),
                     format!(
-                        "no reply from the firmware within {} s ({e}); {} bytes of a frame had arrived",
+                        "no message from the firmware within {} s ({e}); {} bytes of a frame had arrived",
                         REPLY_TIMEOUT.as_secs(),
                         self.pending.len()
                     ),
@@ -390,22 +374,47 @@ impl Qemu {
 }
 
 impl Firmware for Qemu {
-    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Reply> {
+    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled> {
         let mut frame = [0u8; MAX_FRAME_LEN];
         let bytes = dp_link::encode(message, &mut frame)
             .map_err(|_| io::Error::other("message does not fit a frame"))?;
         self.link.write_all(bytes)?;
-        let reply = self
-            .read_reply(message.seq())
-            .map_err(|e| io::Error::new(e.kind(), format!("message {:?}: {e}", message)))?;
-        if reply.seq != message.seq() {
-            return Err(io::Error::other(format!(
-                "reply {} to message {}",
-                reply.seq,
-                message.seq()
-            )));
+        let mut handled = Handled::default();
+        let mut unmarked: Vec<Write> = Vec::new();
+        loop {
+            let mut frame = [0u8; MAX_FRAME_LEN];
+            let read = self
+                .read_message(&mut frame)
+                .map_err(|e| io::Error::new(e.kind(), format!("event {message:?}: {e}")))?;
+            match read {
+                None => {
+                    return Err(io::Error::other(format!(
+                        "event {message:?}: a frame that does not decode"
+                    )))
+                }
+                Some(FromAdapter::Ready) => {
+                    return Err(io::Error::other("Ready again: the firmware restarted"))
+                }
+                Some(FromAdapter::Sim(SimFromAdapter::Sent { instructions })) => {
+                    handled
+                        .writes
+                        .extend(unmarked.drain(..).map(|w| (instructions, w)));
+                    handled.decision_writes = handled.writes.len();
+                }
+                Some(FromAdapter::Sim(SimFromAdapter::Done {
+                    instructions,
+                    drive_tx_bytes,
+                })) => {
+                    handled
+                        .writes
+                        .extend(unmarked.drain(..).map(|w| (instructions, w)));
+                    handled.instructions = instructions;
+                    handled.drive_tx_bytes = drive_tx_bytes;
+                    return Ok(handled);
+                }
+                Some(other) => unmarked.extend(Write::from_message(&other)),
+            }
         }
-        Ok(reply)
     }
 
     fn restart(&mut self) -> io::Result<()> {

@@ -10,6 +10,7 @@
 //!   it on simulated time.
 #![deny(unsafe_code)]
 
+pub mod bridge;
 pub mod cosim;
 pub mod drive_scenarios;
 pub mod drive_sim;

@@ -172,7 +172,10 @@ fn refused<F: Firmware>(
 ) -> io::Result<()> {
     sim.start_master(setup);
     sim.run_for_us(300_000)?;
-    c.check("no data exchange", sim.status.state != SlaveState::DataExch);
+    c.check(
+        "no data exchange",
+        sim.bridge.status.state != SlaveState::DataExch,
+    );
     let flags = diag_flags(sim);
     c.check(
         format!("the master reads {fault}"),
@@ -180,7 +183,7 @@ fn refused<F: Firmware>(
     );
     c.check(
         format!("error LED {error_led:?}"),
-        sim.status.leds.error == error_led,
+        sim.bridge.status.leds.error == error_led,
     );
     Ok(())
 }
@@ -231,21 +234,22 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
             let ok = exchange(&mut sim, 20, limit_us(baud))?;
             c.check("data exchange", ok);
-            let fail_safes = sim.status.fail_safes;
+            let fail_safes = sim.bridge.status.fail_safes;
             sim.stop_master();
             // The master's watchdog is 200 ms; wait past it.
             sim.run_for_us(300_000)?;
             c.check(
                 "watchdog expired: Wait_Prm",
-                sim.status.state == SlaveState::WaitPrm,
+                sim.bridge.status.state == SlaveState::WaitPrm,
             );
             c.check(
                 "outputs went to fail-safe",
-                sim.status.fail_safes > fail_safes,
+                sim.bridge.status.fail_safes > fail_safes,
             );
             c.check(
                 "Net LED blinks, offline LED on",
-                sim.status.leds.net == Led::Blink2Hz && sim.status.leds.offline == Led::On,
+                sim.bridge.status.leds.net == Led::Blink2Hz
+                    && sim.bridge.status.leds.offline == Led::On,
             );
             sim.start_master(MasterSetup::new(baud, SWITCH_ADDRESS));
             let ok = exchange(&mut sim, 20, limit_us(baud))?;
@@ -277,7 +281,7 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             let baud = Baud::B1500000;
             c.check(
                 "switch 0, empty storage: address 126",
-                sim.status.address == 126,
+                sim.bridge.status.address == 126,
             );
             let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
             let payload = [42, hi, lo, 0];
@@ -302,37 +306,41 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
                 "Set_Slave_Add acknowledged (SC)",
                 answer.as_deref() == Some(&[dp_consts::SC][..]),
             );
+            // The firmware decides after the transceiver's answer, and writes the storage.
+            sim.run_for_us(1_000)?;
             c.check(
                 "storage holds address 42",
-                sim.nv
+                sim.bridge.nv
                     == Some(NvRecord {
                         address: 42,
                         no_add_chg: false,
                     }),
             );
-            sim.run_for_us(1_000)?;
             sim.power_cycle()?;
-            c.check("after a power cycle: address 42", sim.status.address == 42);
+            c.check(
+                "after a power cycle: address 42",
+                sim.bridge.status.address == 42,
+            );
             sim.start_master(MasterSetup::new(baud, 42));
             let ok = exchange(&mut sim, 20, limit_us(baud))?;
             c.check("data exchange at address 42", ok);
         }
         Kind::FactoryReset => {
             let baud = Baud::B1500000;
-            c.check("switch 99: address 126", sim.status.address == 126);
+            c.check("switch 99: address 126", sim.bridge.status.address == 126);
             c.check(
                 "storage reset to the factory defaults",
-                sim.nv == Some(adapter::FACTORY_DEFAULTS),
+                sim.bridge.nv == Some(adapter::FACTORY_DEFAULTS),
             );
             sim.start_master(MasterSetup::new(baud, 126));
             let ok = exchange(&mut sim, 20, limit_us(baud))?;
             c.check("data exchange at address 126", ok);
             sim.stop_master();
-            sim.switch = 0;
+            sim.bridge.switch = 0;
             sim.power_cycle()?;
             c.check(
                 "switch 0 after the reset: address 126 from storage",
-                sim.status.address == 126,
+                sim.bridge.status.address == 126,
             );
         }
         Kind::LineNoise => {
@@ -359,14 +367,14 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
         Kind::FieldbusGroup => crate::drive_scenarios::fieldbus_group(&mut sim, &mut c.0)?,
         Kind::Latency => report = crate::drive_scenarios::latency(&mut sim, &mut c.0)?,
     }
-    let figures = sim.figures.clone();
+    let figures = sim.figures();
     c.check(
         "no response later than max TSDR",
         figures.late_responses == 0,
     );
     c.check(
         "the firmware never got a malformed telegram",
-        sim.status.malformed_telegrams == 0,
+        sim.bridge.status.malformed_telegrams == 0,
     );
     if let Some(m) = sim
         .master
@@ -385,9 +393,9 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
         name: scenario.name.clone(),
         checks: c.0,
         figures,
-        events: sim.events.clone(),
-        leds: sim.status.leds,
+        events: sim.events().to_vec(),
+        leds: sim.bridge.status.leds,
         report,
     };
-    Ok((outcome, sim.firmware))
+    Ok((outcome, sim.bridge.firmware))
 }

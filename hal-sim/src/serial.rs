@@ -8,9 +8,8 @@
 //! microseconds): the DP watchdog and the drive link run on it, the drive link through the
 //! same [`DriveWire`] as in the simulator.
 
-use crate::drive_wire::DriveWire;
-use crate::firmware::{Firmware, Reply};
-use dp_link::{Status, ToAdapter};
+use crate::bridge::Bridge;
+use crate::firmware::Firmware;
 use std::io;
 
 /// A byte that starts no telegram.
@@ -31,80 +30,52 @@ pub fn telegram_len(bytes: &[u8]) -> Result<Option<usize>, NotAStart> {
 }
 
 pub struct SerialAdapter<F: Firmware> {
-    pub firmware: F,
-    pub drive: DriveWire,
-    pub status: Status,
+    /// The transceiver's MCU side, the same as the co-simulation's.
+    pub bridge: Bridge<F>,
     /// The rate index reported to the firmware (the port's rate, for 963).
     pub baud: dp_consts::Baud,
-    seq: u32,
     pending: Vec<u8>,
     pub telegrams: u64,
     pub responses: u64,
     pub skipped_bytes: u64,
 }
 
+/// The serial adapter has no sample clock of its own: the bridge counts in these.
+const CLOCK_HZ: u32 = 48_000_000;
+
 impl<F: Firmware> SerialAdapter<F> {
-    /// Powers the adapter up with the switch at `switch`.
-    pub fn new(mut firmware: F, switch: u8, baud: dp_consts::Baud) -> io::Result<Self> {
-        let reply = firmware.exchange(&ToAdapter::Boot {
-            seq: 1,
-            now_us: 0,
-            switch,
-            nv: None,
-        })?;
-        let mut adapter = SerialAdapter {
-            firmware,
-            drive: DriveWire::default(),
-            status: reply.status,
+    /// Powers the adapter up with the switch at `switch`, and runs until the firmware's
+    /// first buffers are in the transceiver.
+    pub fn new(firmware: F, switch: u8, baud: dp_consts::Baud) -> io::Result<Self> {
+        let mut bridge = Bridge::new(firmware, CLOCK_HZ, switch, None);
+        bridge.boot(0);
+        while !bridge.idle() {
+            let Some(next) = bridge.next_ns() else { break };
+            bridge.poll(next)?;
+        }
+        Ok(SerialAdapter {
+            bridge,
             baud,
-            seq: 1,
             pending: Vec::new(),
             telegrams: 0,
             responses: 0,
             skipped_bytes: 0,
-        };
-        adapter.apply(&reply, 0)?;
-        Ok(adapter)
-    }
-
-    fn apply(&mut self, reply: &Reply, t_us: u64) -> io::Result<()> {
-        self.status = reply.status;
-        self.drive
-            .collect(&mut self.firmware, reply.status.drive_tx_bytes, t_us)
+        })
     }
 
     /// When [`SerialAdapter::poll`] must run next.
     pub fn next_event_us(&self) -> Option<u64> {
-        match (self.status.poll_at_us, self.drive.next_delivery_us()) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+        self.bridge.next_ns().map(|ns| ns.div_ceil(1000))
     }
 
-    /// Drive answers and Ticks due at `now_us`.
+    /// The MCU's events, its writes and the drive's answers due at `now_us`.
     pub fn poll(&mut self, now_us: u64) -> io::Result<()> {
-        while let Some((at, bytes)) = self.drive.take_delivery(now_us) {
-            self.firmware.drive_send(&bytes)?;
-            self.tick(at)?;
-        }
-        if self.status.poll_at_us.is_some_and(|at| at <= now_us) {
-            self.tick(now_us)?;
-        }
-        Ok(())
-    }
-
-    fn tick(&mut self, now_us: u64) -> io::Result<()> {
-        self.seq = self.seq.wrapping_add(1);
-        let reply = self.firmware.exchange(&ToAdapter::Tick {
-            seq: self.seq,
-            now_us,
-            drive_rx_bytes: self.drive.delivered,
-        })?;
-        self.apply(&reply, now_us)
+        self.bridge.poll(now_us * 1000)
     }
 
     /// Bytes from the port at `now_us`; returns what to send back.
     pub fn on_bytes(&mut self, now_us: u64, bytes: &[u8]) -> io::Result<Vec<u8>> {
+        self.poll(now_us)?;
         self.pending.extend_from_slice(bytes);
         let mut out = Vec::new();
         loop {
@@ -119,35 +90,14 @@ impl<F: Firmware> SerialAdapter<F> {
                 Ok(Some(len)) => len,
             };
             let telegram: Vec<u8> = self.pending.drain(..len).collect();
-            out.extend(self.telegram(now_us, &telegram)?);
+            self.telegrams += 1;
+            let baud = self.baud.index() as u8;
+            if let Some(response) = self.bridge.telegram(now_us * 1000, baud, &telegram) {
+                self.responses += 1;
+                out.extend(response);
+            }
         }
         Ok(out)
-    }
-
-    fn telegram(&mut self, now_us: u64, bytes: &[u8]) -> io::Result<Vec<u8>> {
-        let ours = match fdl::Telegram::new_checked(bytes) {
-            Ok(view) if view.has_header() => {
-                let da = view.destination();
-                da == self.status.address || da == dp_consts::BROADCAST_ADDRESS
-            }
-            _ => false,
-        };
-        if !ours {
-            return Ok(Vec::new());
-        }
-        self.telegrams += 1;
-        self.seq = self.seq.wrapping_add(1);
-        let reply = self.firmware.exchange(&ToAdapter::Telegram {
-            seq: self.seq,
-            now_us,
-            baud: self.baud.index() as u8,
-            bytes,
-        })?;
-        self.apply(&reply, now_us)?;
-        if !reply.response.is_empty() {
-            self.responses += 1;
-        }
-        Ok(reply.response)
     }
 }
 

@@ -66,7 +66,7 @@ fn drive_line(drive: &DriveSim, link_error: u8) -> String {
 
 fn simulated_bus(firmware: Qemu, switch: u8, stop_at: Option<Duration>) -> Result<()> {
     let mut sim = CoSim::new(firmware, switch, None)?;
-    let address = sim.status.address;
+    let address = sim.bridge.status.address;
     sim.start_master(MasterSetup::new(Baud::B1500000, address));
     println!("qemu-run: the firmware in QEMU, a profirust master at 1.5M on the simulated bus, the drive simulator; Ctrl-C ends");
     let start = Instant::now();
@@ -81,9 +81,9 @@ fn simulated_bus(firmware: Qemu, switch: u8, stop_at: Option<Duration>) -> Resul
             last_print = Instant::now();
             let cycles = sim.master.as_ref().map_or(0, |m| m.cycles);
             let (state, addr, err) = (
-                sim.status.state,
-                sim.status.address,
-                sim.status.drive_link_error,
+                sim.bridge.status.state,
+                sim.bridge.status.address,
+                sim.bridge.status.drive_link_error,
             );
             let drive = drive_line(sim.drive_now(), err);
             print!(
@@ -118,14 +118,14 @@ fn serial_port(
         let name = slave.name().unwrap_or_default();
         println!(
             "qemu-run: the adapter (address {}) is on {name}: point the DP master at it",
-            adapter.status.address
+            adapter.bridge.status.address
         );
         _pty_other_end = Some(slave);
         Box::new(master)
     } else {
         println!(
             "qemu-run: the adapter (address {}) is on {port} at {baud} bit/s",
-            adapter.status.address
+            adapter.bridge.status.address
         );
         serialport::new(port, baud)
             .parity(serialport::Parity::Even)
@@ -154,8 +154,8 @@ fn serial_port(
         if last_print.elapsed() >= Duration::from_millis(500) {
             last_print = Instant::now();
             let now = start.elapsed().as_micros() as u64;
-            adapter.drive.advance_to(now);
-            let s = adapter.status;
+            adapter.bridge.drive.advance_to(now);
+            let s = adapter.bridge.status;
             print!(
                 "\r[{:>7.1} s] {:?} addr {} telegrams {} responses {} {}   ",
                 start.elapsed().as_secs_f64(),
@@ -163,7 +163,7 @@ fn serial_port(
                 s.address,
                 adapter.telegrams,
                 adapter.responses,
-                drive_line(&adapter.drive.drive, s.drive_link_error)
+                drive_line(&adapter.bridge.drive.drive, s.drive_link_error)
             );
             std::io::stdout().flush()?;
         }

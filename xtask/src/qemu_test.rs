@@ -10,7 +10,6 @@
 
 use crate::{check_flags, flag_value, project_root};
 use anyhow::{anyhow, bail, Context, Result};
-use hal_sim::cosim::DECLARED_CLOCK_HZ;
 use hal_sim::firmware::Qemu;
 use hal_sim::scenario::{self, Outcome};
 use std::path::{Path, PathBuf};
@@ -279,9 +278,10 @@ fn diff(want: &str, got: &str) -> String {
 fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
     println!();
     println!(
-        "{:<24} {:<6} {:>7} {:>5} {:>8} {:>9} {:>9} {:>6}  leds (net run tx rx error online offline)",
-        "scenario", "result", "locked", "lost", "cycles", "fw bits", "tsdr bits", "max"
+        "{:<24} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8}  leds (net run tx rx error online offline)",
+        "scenario", "result", "locked", "lost", "tsdr bits", "max", "mcu us", "med us", "cycle us"
     );
+    let us = |ns: Option<u64>| ns.map_or("-".into(), |ns| format!("{:.1}", ns as f64 / 1000.0));
     for (name, ok, outcome) in rows {
         let Some(o) = outcome else {
             println!("{name:<24} {:<6}", if *ok { "ok" } else { "FAILED" });
@@ -289,23 +289,19 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
         };
         let f = &o.figures;
         let baud = f.locked;
-        // The firmware's worst turnaround at the board's declared clock, in bit times.
-        let fw_bits = baud.map(|b| {
-            u64::from(f.worst_cycles) * u64::from(b.bits_per_second())
-                / u64::from(DECLARED_CLOCK_HZ)
-        });
         let l = o.leds;
         println!(
-            "{:<24} {:<6} {:>7} {:>5} {:>8} {:>9} {:>9} {:>6}  {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
+            "{:<24} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8}  {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
             name,
             if *ok { "ok" } else { "FAILED" },
             baud.map_or("-".into(), |b| b.to_string()),
             f.lost_before_lock.map_or("-".into(), |n| n.to_string()),
-            f.worst_cycles,
-            fw_bits.map_or("-".into(), |b| b.to_string()),
             f.worst_tsdr_bits,
             f.worst_tsdr_baud
-                .map_or("-".into(), |b| b.default_max_tsdr_bits().to_string()),
+                .map_or("-".into(), |b| b.vpc3_max_tsdr_bits().to_string()),
+            us(f.worst_outputs_to_inputs_ns),
+            us(f.median_outputs_to_inputs_ns),
+            us(f.median_dp_cycle_ns),
             l.net,
             l.run,
             l.tx,
@@ -315,12 +311,36 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
             l.offline,
         );
     }
+    let b = board::PRODUCTION;
     println!(
-        "cycles: the worst firmware turnaround (message in to reply out), counted under QEMU's icount; \
-         fw bits: those cycles at the board's declared {} MHz, in bit times of the locked rate; \
-         tsdr bits: the worst request-to-response gap on the wire; max: max TSDR at that rate.",
-        DECLARED_CLOCK_HZ / 1_000_000
+        "tsdr bits: the worst request-to-response gap on the wire, answered by the transceiver; \
+         max: the VPC3+ class's MaxTsdr at that rate; mcu us: from a new Data_Exchange's outputs \
+         arriving at the MCU to the firmware's writes (inputs included) back in the transceiver, \
+         worst and median, on the {} ({} MHz, {} instructions per 100 counted, link {} bit/s); \
+         cycle us: the master's median Data_Exchange cycle to the adapter.",
+        b.chip,
+        b.mcu_clock_hz / 1_000_000,
+        b.cycles_per_instruction_pct,
+        b.link.bit_rate
     );
+    // Per rate, over every scenario and every service at that rate.
+    let mut worst: std::collections::BTreeMap<dp_consts::Baud, u64> = Default::default();
+    for f in rows
+        .iter()
+        .filter_map(|(_, _, o)| o.as_ref())
+        .map(|o| &o.figures)
+    {
+        for (baud, bits) in &f.worst_tsdr_by_rate {
+            let w = worst.entry(*baud).or_default();
+            *w = (*w).max(*bits);
+        }
+    }
+    for (baud, bits) in worst {
+        println!(
+            "timing: rate={baud} worst_tsdr_bits={bits} max_tsdr_bits={}",
+            baud.vpc3_max_tsdr_bits()
+        );
+    }
 }
 
 pub(crate) fn ensure_target() -> Result<()> {

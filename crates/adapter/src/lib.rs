@@ -1,9 +1,12 @@
 //! The adapter's MCU logic: from link messages to the DP slave and back, the station address
 //! from the rotary switch and the non-volatile storage, and the LEDs of both manuals.
 //!
-//! The firmware is a thin shell around [`Adapter`]: it decodes a [`ToAdapter`] message, calls
-//! [`Adapter::on_message`], and sends the response with the [`Status`] and its own cycle count.
-//! Nothing here knows of Cortex-M, QEMU or clocks: time arrives in the messages.
+//! The firmware is a thin shell around [`Adapter`]: it decodes a [`ToAdapter`] event and calls
+//! [`Adapter::handle`], which runs the DP slave's decision on it, writes what changed in the
+//! transceiver's buffers (registers, inputs, diagnosis, configuration: the transceiver answers
+//! the bus from them by itself), then runs the drive application's own cycle, writes again
+//! what that changed, and ends with the [`Status`] (LEDs, storage, the next wake-up). Nothing
+//! here knows of Cortex-M, QEMU or clocks: time arrives in the events.
 //!
 //! Station address (seed 000, "从站地址设置"): the switch has two decimal digits. 1-98 set the
 //! address, and Set_Slave_Add is refused because the switch rules. 0 takes the address from
@@ -22,7 +25,7 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
 
-use dp_link::{Led, Leds, NvRecord, SlaveState, Status, ToAdapter};
+use dp_link::{FromAdapter, Led, Leds, NvRecord, Regs, SlaveState, Status, ToAdapter};
 use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
 use drive_link::{fieldbus, LinkedDrive, ModbusMaster};
 use embedded_hal_nb::serial::{Read, Write};
@@ -225,14 +228,8 @@ pub fn link_state(state: State) -> SlaveState {
 }
 
 /// The application as the slave sees it, with the adapter's bookkeeping around it.
-///
-/// User parameters are taken on trust while the slave answers Set_Prm, and checked after the
-/// response has gone (`Adapter::after_message`): the parameter check is the slowest part of
-/// a Set_Prm, and at 12 Mbit/s the response must start within 800 bit times (66 µs). No
-/// other telegram is handled in between, so the master sees the same as with the check first.
 struct Recording<A> {
     inner: A,
-    user_prm_to_check: Option<heapless::Vec<u8, { dp_consts::MAX_DATA_UNIT_LEN }>>,
     nv_write: Option<NvRecord>,
     outputs_applied: u32,
     fail_safes: u16,
@@ -240,13 +237,7 @@ struct Recording<A> {
 
 impl<A: Application> Application for Recording<A> {
     fn accept_user_prm(&mut self, user_prm: &[u8]) -> bool {
-        match heapless::Vec::from_slice(user_prm) {
-            Ok(copy) => {
-                self.user_prm_to_check = Some(copy);
-                true
-            }
-            Err(()) => false,
-        }
+        self.inner.accept_user_prm(user_prm)
     }
     fn accept_cfg(&mut self, cfg: &[u8]) -> Option<IoSizes> {
         self.inner.accept_cfg(cfg)
@@ -283,6 +274,30 @@ impl<A: Application> Application for Recording<A> {
     }
 }
 
+/// What the adapter hands its caller while it handles an event, in order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Out<'a> {
+    /// A write for the transceiver: send it on the link.
+    Write(FromAdapter<'a>),
+    /// The writes of the event's decision are all out; the drive application's cycle follows
+    /// (a simulation marks the time here).
+    DecisionWritten,
+}
+
+/// The largest buffer the responder holds.
+const BUFFER_LEN: usize = dp_consts::MAX_DATA_UNIT_LEN;
+type Buffer = heapless::Vec<u8, BUFFER_LEN>;
+
+/// What the transceiver was last given, so that only changes cross the link.
+#[derive(Default)]
+struct Written {
+    regs: Option<Regs>,
+    inputs: Option<Buffer>,
+    diag: Option<Buffer>,
+    cfg: Option<Buffer>,
+    status: Option<Status>,
+}
+
 /// The adapter after power-up.
 pub struct Adapter<A> {
     slave: Slave<Recording<A>>,
@@ -290,15 +305,16 @@ pub struct Adapter<A> {
     /// Data exchange happened since power-up: leaving it is a fault (Net blinks).
     exchanged: bool,
     malformed_telegrams: u16,
-    response: [u8; dp_consts::MAX_TELEGRAM_LEN],
     /// When the background must run next.
     background_at: Option<u64>,
     /// The address the application was last told (`Background::station`).
     station_told: u8,
-    /// The time of the last message (the LEDs' clock).
+    /// The time of the last event (the LEDs' clock).
     now_us: u64,
-    /// The LEDs of the last full status.
-    leds: Leds,
+    /// The last event handled.
+    seen: u32,
+    written: Written,
+    scratch: [u8; BUFFER_LEN],
 }
 
 impl<A: Application + Background> Adapter<A> {
@@ -315,7 +331,6 @@ impl<A: Application + Background> Adapter<A> {
             },
             Recording {
                 inner: app,
-                user_prm_to_check: None,
                 nv_write: addressing.nv_write,
                 outputs_applied: 0,
                 fail_safes: 0,
@@ -326,13 +341,14 @@ impl<A: Application + Background> Adapter<A> {
             addressing,
             exchanged: false,
             malformed_telegrams: 0,
-            response: [0; dp_consts::MAX_TELEGRAM_LEN],
             // The background starts at once (the drive link loads the fieldbus group and keeps
             // the drive alive), not at the first telegram.
             background_at: Some(0),
             station_told: addressing.address,
             now_us: 0,
-            leds: Leds::default(),
+            seen: 0,
+            written: Written::default(),
+            scratch: [0; BUFFER_LEN],
         }
     }
 
@@ -352,63 +368,54 @@ impl<A: Application + Background> Adapter<A> {
         &mut self.slave.app_mut().inner
     }
 
-    /// Handles a Telegram or Tick (a Boot is the caller's: it builds a new adapter); returns
-    /// the response telegram (empty for none) and the status after it. The caller sends the
-    /// response, then calls [`Adapter::after_message`].
-    pub fn on_message(&mut self, message: &ToAdapter) -> (&[u8], Status) {
-        if let ToAdapter::Telegram { now_us, .. } | ToAdapter::Tick { now_us, .. } = *message {
-            self.now_us = now_us;
-        }
-        let len = match *message {
+    /// Handles one event (a Boot included: the caller built this adapter for it): the slave's
+    /// decision, its writes, [`Out::DecisionWritten`], the drive application's cycle, its
+    /// writes, and last the status if it changed.
+    pub fn handle(&mut self, message: &ToAdapter, out: &mut dyn FnMut(Out)) {
+        let now_us = message.now_us();
+        self.now_us = now_us;
+        let now = Instant::from_micros(now_us);
+        // Events the transceiver's registers wait for: the registers are written after them
+        // even when nothing changed, so that it knows the decision was taken.
+        let mut decided = false;
+        match *message {
+            ToAdapter::Boot { seq, .. } => {
+                self.seen = seq;
+                decided = true;
+            }
             ToAdapter::Telegram {
-                now_us,
-                bytes,
-                baud,
-                ..
-            } => match fdl::Repr::parse_bytes(bytes) {
-                Ok((request, _)) => {
-                    self.slave.app_mut().inner.rate(baud);
-                    let now = Instant::from_micros(now_us);
-                    match self.slave.process(now, &request) {
-                        Some(response) => response.emit(&mut self.response).unwrap_or(0),
-                        None => 0,
+                seq, bytes, baud, ..
+            } => {
+                self.seen = seq;
+                match fdl::Repr::parse_bytes(bytes) {
+                    Ok((request, _)) => {
+                        decided = !self.is_new_outputs(&request);
+                        self.slave.app_mut().inner.rate(baud);
+                        self.slave.process_fresh(now, &request);
+                    }
+                    Err(_) => {
+                        self.malformed_telegrams = self.malformed_telegrams.saturating_add(1);
                     }
                 }
-                Err(_) => {
-                    self.malformed_telegrams = self.malformed_telegrams.saturating_add(1);
-                    0
-                }
-            },
-            ToAdapter::Tick { now_us, .. } => {
-                self.slave.poll(Instant::from_micros(now_us));
-                0
             }
-            ToAdapter::Boot { .. } => 0,
-        };
-
+            ToAdapter::WatchdogExpired { seq, .. } => {
+                self.seen = seq;
+                decided = true;
+                self.slave.expire_watchdog(now);
+            }
+            ToAdapter::Timer { seq, .. } => self.seen = seq,
+            #[allow(unreachable_patterns)]
+            _ => {}
+        }
         if self.slave.state() == State::DataExch {
             self.exchanged = true;
         }
-        let status = self.status_with(self.leds);
-        (&self.response[..len], status)
-    }
+        self.write_buffers(now, decided, out);
+        out(Out::DecisionWritten);
 
-    /// The work after a message's reply: the drive application's cycle at `now_us`.
-    /// Returns the status after it.
-    pub fn after_message(&mut self, message: &ToAdapter) -> Status {
-        if let ToAdapter::Telegram { now_us, .. } = *message {
-            let app = self.slave.app_mut();
-            if let Some(user_prm) = app.user_prm_to_check.take() {
-                if !app.inner.accept_user_prm(&user_prm) {
-                    self.slave.refuse_parameters(Instant::from_micros(now_us));
-                }
-            }
-        }
-        if let ToAdapter::Telegram { now_us, .. } | ToAdapter::Tick { now_us, .. } = *message {
-            self.background_at = self.slave.app_mut().inner.run(now_us);
-            if let Some(address) = self.slave.app_mut().inner.requested_station() {
-                self.readdress(Instant::from_micros(now_us), address);
-            }
+        self.background_at = self.slave.app_mut().inner.run(now_us);
+        if let Some(address) = self.slave.app_mut().inner.requested_station() {
+            self.readdress(now, address);
         }
         // Set_Slave_Add or the drive changed it: 918 and 51.02 follow.
         let address = self.slave.address();
@@ -416,7 +423,87 @@ impl<A: Application + Background> Adapter<A> {
             self.station_told = address;
             self.slave.app_mut().inner.station(address);
         }
-        self.status()
+        self.write_buffers(now, false, out);
+        let status = self.status();
+        let unchanged = self.written.status.is_some_and(|s| {
+            Status {
+                outputs_applied: status.outputs_applied,
+                ..s
+            } == status
+        });
+        if !unchanged || status.nv_write.is_some() {
+            self.written.status = Some(status);
+            out(Out::Write(FromAdapter::Status(status)));
+        }
+    }
+
+    /// A Data_Exchange with outputs of the configured length: the transceiver needs no
+    /// decision from it.
+    fn is_new_outputs(&self, request: &fdl::Repr) -> bool {
+        match request {
+            fdl::Repr::Data(d) => {
+                d.dsap.is_none()
+                    && !d.payload.is_empty()
+                    && d.payload.len() == self.slave.io_sizes().outputs
+            }
+            _ => false,
+        }
+    }
+
+    /// Writes the responder's buffers that changed, and the registers last (so that the
+    /// buffers are in place when the registers release the answers that wait for them); the
+    /// registers also when `decided`.
+    fn write_buffers(&mut self, now: Instant, decided: bool, out: &mut dyn FnMut(Out)) {
+        let len = self.slave.write_inputs(now, &mut self.scratch);
+        let inputs = Buffer::from_slice(&self.scratch[..len]).unwrap_or_default();
+        if self.written.inputs.as_ref() != Some(&inputs) {
+            out(Out::Write(FromAdapter::Inputs(&inputs)));
+            self.written.inputs = Some(inputs);
+        }
+        let (len, new) = self.slave.write_diag(&mut self.scratch);
+        let diag = Buffer::from_slice(&self.scratch[..len]).unwrap_or_default();
+        if new || self.written.diag.as_ref() != Some(&diag) {
+            out(Out::Write(FromAdapter::Diag { new, bytes: &diag }));
+            self.written.diag = Some(diag);
+        }
+        let len = self.slave.write_cfg(&mut self.scratch);
+        let cfg = Buffer::from_slice(&self.scratch[..len]).unwrap_or_default();
+        if self.written.cfg.as_ref() != Some(&cfg) {
+            out(Out::Write(FromAdapter::Cfg(&cfg)));
+            self.written.cfg = Some(cfg);
+        }
+        let regs = self.regs();
+        let changed = self.written.regs.is_none_or(|r| {
+            Regs {
+                seen: regs.seen,
+                ..r
+            } != regs
+        });
+        if decided || changed {
+            out(Out::Write(FromAdapter::Regs(regs)));
+            self.written.regs = Some(regs);
+        }
+    }
+
+    /// The slave's registers for the transceiver.
+    pub fn regs(&self) -> Regs {
+        let slave = &self.slave;
+        let io = slave.io_sizes();
+        Regs {
+            seen: self.seen,
+            address: slave.address(),
+            state: link_state(slave.state()),
+            owner: slave.owner(),
+            locked: slave.is_locked(),
+            no_add_chg: slave.no_add_chg(),
+            ident_number: slave.ident_number(),
+            watchdog_us: slave
+                .watchdog_micros()
+                .map(|us| u32::try_from(us).unwrap_or(u32::MAX)),
+            min_tsdr_bits: slave.min_tsdr_bits(),
+            inputs_len: io.inputs as u8,
+            outputs_len: io.outputs as u8,
+        }
     }
 
     /// Seed 004's software addressing: with the switch at 0, the drive's 51.02 after a refresh
@@ -443,30 +530,15 @@ impl<A: Application + Background> Adapter<A> {
 
     /// The status now; takes a pending storage write.
     pub fn status(&mut self) -> Status {
-        self.leds = self.leds();
-        self.status_with(self.leds)
-    }
-
-    /// The status with `leds`. The response's status carries the LEDs of the last full status:
-    /// at 12 Mbit/s the response has 66 µs and no cycles to spare, and the status after the
-    /// drive link's turn follows at once with them up to date.
-    fn status_with(&mut self, leds: Leds) -> Status {
+        let leds = self.leds();
         let nv_write = self.slave.app_mut().nv_write.take();
         let app = self.slave.app();
         Status {
             address: self.slave.address(),
             state: link_state(self.slave.state()),
-            min_tsdr_bits: self.slave.min_tsdr_bits(),
             leds,
             nv_write,
-            poll_at_us: match (
-                self.slave.poll_at().map(Instant::micros),
-                self.background_at,
-            ) {
-                (Some(a), Some(b)) => Some(a.min(b)),
-                (a, b) => a.or(b),
-            },
-            drive_tx_bytes: app.inner.drive_tx_bytes(),
+            wake_at_us: self.background_at,
             drive_link_error: app.inner.drive_link_error(),
             outputs_applied: app.outputs_applied,
             fail_safes: app.fail_safes,
@@ -550,90 +622,164 @@ mod tests {
         );
     }
 
-    fn telegram(bytes: &[u8]) -> ToAdapter<'_> {
+    fn telegram(seq: u32, bytes: &[u8]) -> ToAdapter<'_> {
         ToAdapter::Telegram {
-            seq: 1,
+            seq,
             now_us: 1000,
             baud: 9,
             bytes,
         }
     }
 
+    /// A DP service request from master 2 to `address`, framed by fdl.
+    fn request(address: u8, sap: fdl::Sap, fcb: bool, payload: &[u8]) -> Vec<u8> {
+        let repr = fdl::Repr::Data(fdl::DataRepr {
+            da: address,
+            sa: 2,
+            dsap: Some(sap),
+            ssap: Some(fdl::Sap::MASTER_MS0),
+            fc: fdl::FrameControl::Request {
+                fcb,
+                fcv: true,
+                function: fdl::RequestFunction::SrdLow,
+            },
+            payload,
+        });
+        let mut bytes = vec![0; repr.buffer_len()];
+        repr.emit(&mut bytes).unwrap();
+        bytes
+    }
+
+    /// Set_Slave_Add to `new_address` with the adapter's ident.
+    fn set_slave_add(address: u8, new_address: u8) -> Vec<u8> {
+        let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
+        request(
+            address,
+            fdl::Sap::SET_SLAVE_ADD,
+            true,
+            &[new_address, hi, lo, 0],
+        )
+    }
+
+    /// What one event wrote, as owned values: registers, statuses, and the count of writes.
+    #[derive(Default, Debug)]
+    struct Written {
+        regs: Vec<Regs>,
+        status: Vec<Status>,
+        diag: Vec<(bool, Vec<u8>)>,
+        writes: usize,
+    }
+
+    fn handle<A: Application + Background>(adapter: &mut Adapter<A>, m: &ToAdapter) -> Written {
+        let mut w = Written::default();
+        adapter.handle(m, &mut |out| {
+            if let Out::Write(write) = out {
+                w.writes += 1;
+                match write {
+                    FromAdapter::Regs(r) => w.regs.push(r),
+                    FromAdapter::Status(s) => w.status.push(s),
+                    FromAdapter::Diag { new, bytes } => w.diag.push((new, bytes.to_vec())),
+                    _ => {}
+                }
+            }
+        });
+        w
+    }
+
+    fn booted<A: Application + Background>(switch: u8, app: A) -> Adapter<A> {
+        let mut adapter = Adapter::boot(switch, None, app);
+        let boot = ToAdapter::Boot {
+            seq: 1,
+            now_us: 0,
+            switch,
+            nv: None,
+        };
+        let w = handle(&mut adapter, &boot);
+        assert_eq!(w.regs.last().map(|r| r.seen), Some(1), "{w:?}");
+        adapter
+    }
+
     #[test]
     fn set_slave_add_is_written_to_storage_once() {
-        let mut adapter = Adapter::boot(0, None, EchoApp::default());
+        let mut adapter = booted(0, EchoApp::default());
         assert_eq!(adapter.status().address, 126);
-        // Set_Slave_Add to 42 with the adapter's ident, from master 2.
-        let mut t = vec![0x68, 0x09, 0x09, 0x68, 126 | 0x80, 0x82, 0x6C, 55, 62, 42];
-        t.extend_from_slice(&dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes());
-        t.push(0);
-        let fcs = fdl::fcs(&t[4..]);
-        t.extend_from_slice(&[fcs, 0x16]);
-        let (response, status) = adapter.on_message(&telegram(&t));
-        assert_eq!(response, [0xE5]);
-        assert_eq!(status.address, 42);
+        let t = set_slave_add(126, 42);
+        let w = handle(&mut adapter, &telegram(2, &t));
+        let regs = w.regs.last().expect("registers after a decision");
+        assert_eq!((regs.seen, regs.address), (2, 42));
         assert_eq!(
-            status.nv_write,
+            w.status.last().and_then(|s| s.nv_write),
             Some(NvRecord {
                 address: 42,
                 no_add_chg: false
             })
         );
-        assert_eq!(adapter.status().nv_write, None);
+        let w = handle(
+            &mut adapter,
+            &ToAdapter::Timer {
+                seq: 3,
+                now_us: 2000,
+            },
+        );
+        assert!(w.status.iter().all(|s| s.nv_write.is_none()), "{w:?}");
     }
 
     #[test]
     fn the_switch_forbids_set_slave_add() {
-        let mut adapter = Adapter::boot(5, None, EchoApp::default());
-        let mut t = vec![0x68, 0x09, 0x09, 0x68, 5 | 0x80, 0x82, 0x6C, 55, 62, 42];
-        t.extend_from_slice(&dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes());
-        t.push(0);
-        let fcs = fdl::fcs(&t[4..]);
-        t.extend_from_slice(&[fcs, 0x16]);
-        let (_, status) = adapter.on_message(&telegram(&t));
-        assert_eq!(status.address, 5);
-        assert_eq!(status.nv_write, None);
+        let mut adapter = booted(5, EchoApp::default());
+        let t = set_slave_add(5, 42);
+        let w = handle(&mut adapter, &telegram(2, &t));
+        assert_eq!(
+            w.regs.last().map(|r| (r.address, r.no_add_chg)),
+            Some((5, true))
+        );
+        assert!(w.status.iter().all(|s| s.nv_write.is_none()));
     }
 
     /// Set_Prm from master 2 with the adapter's ident and one user parameter byte.
-    /// `fcb`: the frame count bit, alternating so that the second is not taken as a repeat.
     fn set_prm(address: u8, user: u8, fcb: bool) -> Vec<u8> {
         let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
-        let du = [0x88, 1, 20, 11, hi, lo, 0, user];
-        let fc = 0x5D | if fcb { 0x20 } else { 0 };
-        let mut t = vec![0x68, 0, 0, 0x68, address | 0x80, 0x82, fc, 61, 62];
-        t[1] = (5 + du.len()) as u8;
-        t[2] = t[1];
-        t.extend_from_slice(&du);
-        let fcs = fdl::fcs(&t[4..]);
-        t.extend_from_slice(&[fcs, 0x16]);
-        t
+        request(
+            address,
+            fdl::Sap::SET_PRM,
+            fcb,
+            &[0x88, 1, 20, 11, hi, lo, 0, user],
+        )
     }
 
     #[test]
-    fn user_parameters_are_checked_after_the_response_with_the_same_outcome() {
+    fn refused_user_parameters_reach_the_registers_and_the_diagnosis() {
         let app = EchoApp {
             reject_user_prm_byte: Some(0x55),
             ..EchoApp::default()
         };
-        let mut adapter = Adapter::boot(8, None, app);
-        let t = set_prm(8, 0x55, false);
-        let message = telegram(&t);
-        let (response, status) = adapter.on_message(&message);
-        assert_eq!(response, [0xE5], "{:?}", fdl::Repr::parse_bytes(&t));
-        assert!(!adapter.slave().prm_fault());
-        // Taken on trust until the response has gone...
-        assert_eq!(status.state, SlaveState::WaitCfg);
-        // ... then refused: Prm_Fault in Wait_Prm, as a refusal before the response gives.
-        let status = adapter.after_message(&message);
-        assert_eq!(status.state, SlaveState::WaitPrm);
-        assert!(adapter.slave().prm_fault());
-        let t = set_prm(8, 0x00, true);
-        let message = telegram(&t);
-        adapter.on_message(&message);
-        assert_eq!(adapter.after_message(&message).state, SlaveState::WaitCfg);
-        assert!(!adapter.slave().prm_fault());
+        let mut adapter = booted(8, app);
+        let w = handle(&mut adapter, &telegram(2, &set_prm(8, 0x55, false)));
+        assert_eq!(
+            w.regs.last().map(|r| (r.seen, r.state)),
+            Some((2, SlaveState::WaitPrm))
+        );
+        let (_, diag) = w.diag.last().expect("the diagnosis changed");
+        assert_ne!(diag[0] & dp_consts::diag::ST1_PRM_FAULT, 0);
+        let w = handle(&mut adapter, &telegram(3, &set_prm(8, 0x00, true)));
+        assert_eq!(
+            w.regs.last().map(|r| (r.seen, r.state, r.owner)),
+            Some((3, SlaveState::WaitCfg, Some(2)))
+        );
         assert_eq!(adapter.app().user_prm, [0x00]);
+    }
+
+    #[test]
+    fn only_changes_cross_the_link() {
+        let mut adapter = booted(8, EchoApp::default());
+        let w = handle(&mut adapter, &ToAdapter::Timer { seq: 2, now_us: 10 });
+        assert_eq!(w.writes, 0, "{w:?}");
+        // A decision writes the registers even when they did not change.
+        let w = handle(
+            &mut adapter,
+            &ToAdapter::WatchdogExpired { seq: 3, now_us: 20 },
+        );
+        assert_eq!(w.regs.len(), 1);
     }
 
     #[test]

@@ -194,6 +194,27 @@ impl Baud {
         }
     }
 
+    /// MaxTsdr that VPC3+-based slaves declare (shared/reference/gsd/CP24V1.gsd,
+    /// EASY4711.gsd): the level the adapter must beat at every rate.
+    pub const fn vpc3_max_tsdr_bits(self) -> u16 {
+        match self {
+            Baud::B9600 | Baud::B19200 | Baud::B45450 | Baud::B93750 | Baud::B187500 => 15,
+            Baud::B500000 => 15,
+            Baud::B1500000 => 20,
+            Baud::B3000000 => 35,
+            Baud::B6000000 => 50,
+            Baud::B12000000 => 95,
+        }
+    }
+
+    /// MaxTsdr the adapter declares in its GSD: its transceiver answers every DP-V0 request
+    /// min TSDR (11) after the request plus at most a bit of sampling grid and its decision
+    /// (12 bit times measured at every rate by `cargo xtask qemu-test`'s timing lines); 15
+    /// leaves room and is never looser than the VPC3+ class.
+    pub const fn adapter_max_tsdr_bits(self) -> u16 {
+        15
+    }
+
     /// Default slot time in bit times.
     pub const fn default_slot_time_bits(self) -> u16 {
         match self {

@@ -1,14 +1,27 @@
 //! The link between the transceiver (the FPGA, or hal-sim's model of it) and the adapter's MCU.
 //!
 //! Every message is postcard-encoded and COBS-framed (a zero byte ends each frame), defined
-//! once here for the firmware and the simulator. The exchange is strictly request/reply: each
-//! [`ToAdapter`] message gets exactly one [`FromAdapter::Reply`] (the DP response, as soon as
-//! it is built) and then one [`FromAdapter::Done`] (the drive link's work after it) with the
-//! same `seq`, so the transceiver always knows whether a response is coming and the firmware's
-//! queue never holds more than one message.
+//! once here for the firmware and the simulator. The link is event-driven, as the interface of
+//! an SPC3/VPC3+ is: the transceiver answers every DP-V0 request by itself from buffers the
+//! firmware filled ([`FromAdapter::Regs`], [`FromAdapter::Inputs`], [`FromAdapter::Diag`],
+//! [`FromAdapter::Cfg`]), and hands the firmware only what needs its decision
+//! ([`ToAdapter::Telegram`]: Set_Prm, Chk_Cfg, Global_Control, Set_Slave_Add and the outputs of
+//! each new Data_Exchange), its watchdog's expiry, and the wake-up the firmware asked for.
+//! Nothing waits for a reply.
+//!
+//! Events carry a sequence number; the firmware's [`Regs`] say which events it had seen when
+//! it wrote them ([`Regs::seen`]). The transceiver answers the requests whose answer depends on
+//! a decision still on its way (Slave_Diag, Get_Cfg, Data_Exchange, Rd_Inp, Rd_Outp,
+//! Set_Slave_Add) with "no resource" (RR) until the firmware's registers have seen that
+//! decision, as an SPC3 does while its user buffer is not free.
 //!
 //! Time on the link is the transceiver's clock in microseconds (`now_us`): the firmware has no
-//! clock of its own for the protocol, so the DP watchdog runs on bus time, in QEMU as on the board.
+//! clock of its own for the protocol, so everything it times runs on bus time, in QEMU as on
+//! the board.
+//!
+//! What only the simulation needs (how many drive bytes the simulated drive line has delivered,
+//! the firmware's cycle counts) is in [`sim`], behind the `sim` feature: the production board's
+//! build does not have it, so it can neither send nor accept it.
 //!
 //! [`encode`] never panics (it fails on a short buffer); [`Deframer`] never panics on any bytes
 //! and drops a frame that is too long or does not decode.
@@ -17,8 +30,8 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The largest encoded frame: a 255-byte telegram plus the fields around it, COBS overhead and
-/// the terminating zero.
+/// The largest encoded frame: a 255-byte telegram or buffer plus the fields around it, COBS
+/// overhead and the terminating zero.
 pub const MAX_FRAME_LEN: usize = 320;
 
 /// What the non-volatile storage holds for the station address.
@@ -42,8 +55,8 @@ pub enum ToAdapter<'a> {
         switch: u8,
         nv: Option<NvRecord>,
     },
-    /// An error-free telegram, its last stop bit ended at `now_us`, at rate index `baud`
-    /// (`dp_consts::Baud::index`).
+    /// A request for the firmware's decision, already answered on the bus by the transceiver:
+    /// its last stop bit ended at `now_us`, at rate index `baud` (`dp_consts::Baud::index`).
     Telegram {
         seq: u32,
         now_us: u64,
@@ -51,24 +64,64 @@ pub enum ToAdapter<'a> {
         #[serde(borrow)]
         bytes: &'a [u8],
     },
-    /// Time passed without a telegram for us: the watchdog and the drive link run on it.
-    /// `drive_rx_bytes`: the bytes the drive has sent since power-up, all of which are in the
-    /// MCU's drive UART when this Tick is handled (the simulated drive link's lockstep).
-    Tick {
-        seq: u32,
-        now_us: u64,
-        drive_rx_bytes: u32,
-    },
+    /// The DP watchdog expired in the transceiver: it is back in Wait_Prm, and the firmware's
+    /// slave must follow (fail-safe).
+    WatchdogExpired { seq: u32, now_us: u64 },
+    /// The wake-up the firmware asked for ([`Status::wake_at_us`]).
+    Timer { seq: u32, now_us: u64 },
+    /// Simulation only.
+    #[cfg(feature = "sim")]
+    Sim(sim::SimToAdapter),
 }
 
 impl ToAdapter<'_> {
+    /// The event's sequence number (0 for simulation messages, which are not events).
     pub fn seq(&self) -> u32 {
         match *self {
             ToAdapter::Boot { seq, .. }
             | ToAdapter::Telegram { seq, .. }
-            | ToAdapter::Tick { seq, .. } => seq,
+            | ToAdapter::WatchdogExpired { seq, .. }
+            | ToAdapter::Timer { seq, .. } => seq,
+            #[cfg(feature = "sim")]
+            ToAdapter::Sim(_) => 0,
         }
     }
+
+    /// The transceiver's time of the event.
+    pub fn now_us(&self) -> u64 {
+        match *self {
+            ToAdapter::Boot { now_us, .. }
+            | ToAdapter::Telegram { now_us, .. }
+            | ToAdapter::WatchdogExpired { now_us, .. }
+            | ToAdapter::Timer { now_us, .. } => now_us,
+            #[cfg(feature = "sim")]
+            ToAdapter::Sim(sim::SimToAdapter::DriveBytes { now_us, .. }) => now_us,
+        }
+    }
+}
+
+/// The DP slave's registers in the transceiver, as the firmware's slave has them.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Regs {
+    /// The last event the firmware had handled when it wrote these.
+    pub seen: u32,
+    pub address: u8,
+    pub state: SlaveState,
+    /// The master that parameterised the slave.
+    pub owner: Option<u8>,
+    /// Lock_Req of that master is in force.
+    pub locked: bool,
+    /// Set_Slave_Add is refused (the switch rules, or No_Add_Chg).
+    pub no_add_chg: bool,
+    pub ident_number: u16,
+    /// The DP watchdog from the last Set_Prm, if on.
+    pub watchdog_us: Option<u32>,
+    /// min TSDR to give the transmitter, in bit times.
+    pub min_tsdr_bits: u8,
+    /// Bytes of the accepted configuration.
+    pub inputs_len: u8,
+    pub outputs_len: u8,
 }
 
 /// MCU to transceiver.
@@ -78,38 +131,67 @@ pub enum FromAdapter<'a> {
     /// The MCU's link is up: sent once after reset, before which the transceiver sends nothing
     /// (bytes that reach a UART before it is configured are lost).
     Ready,
-    /// The response to a message, sent as soon as it is built.
-    Reply {
-        seq: u32,
-        /// The response telegram, or empty for none.
+    /// The slave's registers.
+    Regs(Regs),
+    /// The inputs a Data_Exchange or Rd_Inp answers with.
+    Inputs(#[serde(borrow)] &'a [u8]),
+    /// The diagnosis Slave_Diag answers with (as the owner reads it; the transceiver adds
+    /// Master_Lock for another master). `new`: Data_Exchange answers DH until the owner reads it.
+    Diag {
+        new: bool,
         #[serde(borrow)]
-        response: &'a [u8],
-        /// CPU cycles from the arrival of the message to this hand-off.
-        cycles: u32,
-        status: Status,
+        bytes: &'a [u8],
     },
-    /// After each Reply: the work that follows it (the drive link) is done; the status after
-    /// it. Exactly one Reply and one Done answer each message.
-    Done { seq: u32, status: Status },
+    /// The configuration Get_Cfg answers with.
+    Cfg(#[serde(borrow)] &'a [u8]),
+    /// LEDs, storage, the wake-up, and figures for observers.
+    Status(Status),
+    /// Simulation only.
+    #[cfg(feature = "sim")]
+    Sim(sim::SimFromAdapter),
 }
 
-/// The slave's state after a message, for the transceiver and for observers.
+/// The messages only the simulation has: the drive line's lockstep and the firmware's own
+/// cycle counts, which hal-sim turns into board time.
+#[cfg(feature = "sim")]
+pub mod sim {
+    use serde::{Deserialize, Serialize};
+
+    #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+    #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+    pub enum SimToAdapter {
+        /// The simulated drive has sent `drive_rx_bytes` bytes since power-up, all of which
+        /// are in the MCU's drive UART when this is handled.
+        DriveBytes { now_us: u64, drive_rx_bytes: u32 },
+    }
+
+    #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+    #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+    pub enum SimFromAdapter {
+        /// The messages before this one were handed to the link UART `instructions` after the
+        /// handling of the message began.
+        Sent { instructions: u32 },
+        /// The message is handled, after `instructions`; `drive_tx_bytes` bytes have gone to
+        /// the drive UART since power-up.
+        Done {
+            instructions: u32,
+            drive_tx_bytes: u32,
+        },
+    }
+}
+
+/// The adapter's state for the board around it (LEDs, storage, the wake-up) and for observers.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
     pub address: u8,
     pub state: SlaveState,
-    /// min TSDR to give the transmitter, in bit times.
-    pub min_tsdr_bits: u8,
     pub leds: Leds,
     /// A record the non-volatile storage must now hold.
     pub nv_write: Option<NvRecord>,
-    /// The next time the adapter must see a Tick, if any (the watchdog's deadline, the drive
-    /// link's answer deadline or keep-alive).
-    pub poll_at_us: Option<u64>,
-    /// Bytes sent to the drive since power-up, all of them written to the drive UART before
-    /// this status (the simulated drive link's lockstep).
-    pub drive_tx_bytes: u32,
+    /// When the firmware must be woken ([`ToAdapter::Timer`]): the drive link's answer
+    /// deadline or keep-alive.
+    pub wake_at_us: Option<u64>,
     /// The drive link's error value (seed 000: 0x21, 0x22, 0x23, or the drive's refusal),
     /// 0 while it works.
     pub drive_link_error: u8,
@@ -227,7 +309,6 @@ mod tests {
         Status {
             address: 8,
             state: SlaveState::DataExch,
-            min_tsdr_bits: 11,
             leds: Leds {
                 net: Led::On,
                 run: Led::Flash1Hz,
@@ -238,8 +319,7 @@ mod tests {
                 address: 42,
                 no_add_chg: true,
             }),
-            poll_at_us: Some(1_000_000),
-            drive_tx_bytes: u32::MAX,
+            wake_at_us: Some(1_000_000),
             drive_link_error: 0x22,
             outputs_applied: 7,
             fail_safes: 1,
@@ -286,11 +366,18 @@ mod tests {
                 baud: 9,
                 bytes: &telegram,
             },
-            ToAdapter::Tick {
+            ToAdapter::WatchdogExpired {
                 seq: 2,
                 now_us: u64::MAX,
-                drive_rx_bytes: u32::MAX,
             },
+            ToAdapter::Timer {
+                seq: u32::MAX,
+                now_us: 7,
+            },
+            ToAdapter::Sim(sim::SimToAdapter::DriveBytes {
+                now_us: 1,
+                drive_rx_bytes: u32::MAX,
+            }),
         ];
         let mut stream = Vec::new();
         for m in &messages {
@@ -315,47 +402,56 @@ mod tests {
     }
 
     #[test]
-    fn the_largest_reply_fits_a_frame() {
-        let response = [0xAAu8; 255];
-        let reply = FromAdapter::Reply {
-            seq: u32::MAX,
-            response: &response,
-            cycles: u32::MAX,
-            status: status(),
-        };
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(&reply, &mut buf).unwrap().to_vec();
-        let (got, dropped) = decode_all!(FromAdapter, &frame);
-        assert_eq!(dropped, 0);
-        assert_eq!(got, [format!("{reply:?}")]);
+    fn every_write_fits_a_frame_at_its_largest() {
+        let buffer = [0xAAu8; 255];
+        let writes = [
+            FromAdapter::Ready,
+            FromAdapter::Regs(Regs {
+                seen: u32::MAX,
+                address: 126,
+                state: SlaveState::DataExch,
+                owner: Some(125),
+                locked: true,
+                no_add_chg: true,
+                ident_number: u16::MAX,
+                watchdog_us: Some(u32::MAX),
+                min_tsdr_bits: 255,
+                inputs_len: 244,
+                outputs_len: 244,
+            }),
+            FromAdapter::Inputs(&buffer),
+            FromAdapter::Diag {
+                new: true,
+                bytes: &buffer,
+            },
+            FromAdapter::Cfg(&buffer),
+            FromAdapter::Status(status()),
+            FromAdapter::Sim(sim::SimFromAdapter::Done {
+                instructions: u32::MAX,
+                drive_tx_bytes: u32::MAX,
+            }),
+        ];
+        for write in writes {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let frame = encode(&write, &mut buf).unwrap().to_vec();
+            let (got, dropped) = decode_all!(FromAdapter, &frame);
+            assert_eq!(dropped, 0);
+            assert_eq!(got, [format!("{write:?}")]);
+        }
     }
 
     #[test]
     fn garbage_between_frames_is_dropped_and_the_next_frame_decodes() {
         let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode(
-            &ToAdapter::Tick {
-                seq: 5,
-                now_us: 6,
-                drive_rx_bytes: 7,
-            },
-            &mut buf,
-        )
-        .unwrap()
-        .to_vec();
+        let frame = encode(&ToAdapter::Timer { seq: 5, now_us: 6 }, &mut buf)
+            .unwrap()
+            .to_vec();
         let mut stream = vec![0xFF, 0x13, 0x00];
         stream.extend_from_slice(&frame);
         let (got, dropped) = decode_all!(ToAdapter, &stream);
         assert_eq!(
             got,
-            [format!(
-                "{:?}",
-                ToAdapter::Tick {
-                    seq: 5,
-                    now_us: 6,
-                    drive_rx_bytes: 7,
-                }
-            )]
+            [format!("{:?}", ToAdapter::Timer { seq: 5, now_us: 6 })]
         );
         assert_eq!(dropped, 1);
     }

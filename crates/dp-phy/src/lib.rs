@@ -28,6 +28,7 @@ pub mod autobaud;
 pub mod bus;
 pub mod delimiter;
 pub mod filter;
+pub mod responder;
 pub mod station;
 pub mod testbench;
 pub mod timing;

@@ -198,6 +198,46 @@ impl<A: Application> Slave<A> {
         self.watchdog_micros
     }
 
+    /// The Ident_Number Set_Prm must carry.
+    pub fn ident_number(&self) -> u16 {
+        self.ident_number
+    }
+
+    /// The diagnosis as its owner (or any master, while none owns the slave) reads it now,
+    /// into `out`: its length, and whether it is new since the last call (Data_Exchange
+    /// answers DH until it is read). For a transceiver that answers Slave_Diag from a buffer.
+    pub fn write_diag(&mut self, out: &mut [u8]) -> (usize, bool) {
+        let new = self.app.diag_changed() || self.diag_pending;
+        self.diag_pending = false;
+        let len = self.diag_payload(false);
+        let len = len.min(out.len());
+        out[..len].copy_from_slice(&self.payload_buffer[..len]);
+        (len, new)
+    }
+
+    /// The configuration Get_Cfg answers with now, into `out`; its length.
+    pub fn write_cfg(&self, out: &mut [u8]) -> usize {
+        let cfg = self.current_cfg();
+        let len = cfg.len().min(out.len());
+        out[..len].copy_from_slice(&cfg[..len]);
+        len
+    }
+
+    /// The inputs Data_Exchange and Rd_Inp answer with now (the frozen ones under Freeze),
+    /// into `out`; their length (0 outside Data_Exch).
+    pub fn write_inputs(&mut self, now: Instant, out: &mut [u8]) -> usize {
+        if self.state != State::DataExch {
+            return 0;
+        }
+        let len = self.io.inputs.min(out.len());
+        if self.freeze_active {
+            out[..len].copy_from_slice(&self.frozen_inputs[..len]);
+        } else {
+            self.app.inputs(now, &mut out[..len]);
+        }
+        len
+    }
+
     pub fn app(&self) -> &A {
         &self.app
     }
@@ -216,18 +256,25 @@ impl<A: Application> Slave<A> {
     pub fn poll(&mut self, now: Instant) -> bool {
         match self.watchdog_deadline {
             Some(deadline) if now >= deadline => {
-                self.watchdog_deadline = None;
-                self.owner = None;
-                self.locked = false;
-                // The application is told even outside Data_Exch: its outputs may still be live.
-                if self.state != State::DataExch {
-                    self.app.fail_safe(now, FailSafeReason::WatchdogExpired);
-                }
-                self.leave_to_wait_prm(now, FailSafeReason::WatchdogExpired);
+                self.expire_watchdog(now);
                 true
             }
             _ => false,
         }
+    }
+
+    /// The watchdog expired (here, or in a transceiver that runs it, such as a VPC3+ or the
+    /// adapter's): the application goes fail-safe, the lock is released and the slave returns
+    /// to Wait_Prm.
+    pub fn expire_watchdog(&mut self, now: Instant) {
+        self.watchdog_deadline = None;
+        self.owner = None;
+        self.locked = false;
+        // The application is told even outside Data_Exch: its outputs may still be live.
+        if self.state != State::DataExch {
+            self.app.fail_safe(now, FailSafeReason::WatchdogExpired);
+        }
+        self.leave_to_wait_prm(now, FailSafeReason::WatchdogExpired);
     }
 
     /// Parses `request`, processes it and writes the response telegram into `out`; returns its
@@ -242,6 +289,22 @@ impl<A: Application> Slave<A> {
     /// Processes one request; returns the response to send, if any.
     pub fn process(&mut self, now: Instant, request: &Repr) -> Option<Repr<'_>> {
         self.poll(now);
+        self.process_inner(now, request, true)
+    }
+
+    /// Processes a request that a transceiver has already answered and filtered: it has run
+    /// the watchdog and recognised repetitions (FCB), so neither is done here. The response is
+    /// the one the transceiver gave.
+    pub fn process_fresh(&mut self, now: Instant, request: &Repr) -> Option<Repr<'_>> {
+        self.process_inner(now, request, false)
+    }
+
+    fn process_inner(
+        &mut self,
+        now: Instant,
+        request: &Repr,
+        repetitions: bool,
+    ) -> Option<Repr<'_>> {
         let Repr::Data(request) = request else {
             return None;
         };
@@ -268,7 +331,7 @@ impl<A: Application> Slave<A> {
             // SDA, Ident and LSAP status are not DP services; the master's slot time runs out.
             return None;
         }
-        if answers && fcv {
+        if answers && fcv && repetitions {
             if let Some(last) = self.last {
                 if last.requester == request.sa && last.fcb == fcb {
                     return Some(self.stored_response(request, last.response));
@@ -449,6 +512,15 @@ impl<A: Application> Slave<A> {
         if self.app.diag_changed() {
             self.diag_pending = true;
         }
+        let len = self.diag_payload(self.locked && self.owner != Some(requester));
+        if self.owner == Some(requester) || self.owner.is_none() {
+            self.diag_pending = false;
+        }
+        Answer::Data(ResponseStatus::DataLow, len)
+    }
+
+    /// The diagnosis into the payload buffer, with Master_Lock if `other_master`; its length.
+    fn diag_payload(&mut self, other_master: bool) -> usize {
         let ext_len = {
             let room = &mut self.payload_buffer[diag::STANDARD_LEN..];
             let room_len = room.len();
@@ -467,7 +539,7 @@ impl<A: Application> Slave<A> {
         if self.prm_fault {
             st1 |= diag::ST1_PRM_FAULT;
         }
-        if self.locked && self.owner != Some(requester) {
+        if other_master {
             st1 |= diag::ST1_MASTER_LOCK;
         }
         let mut st2 = diag::ST2_ALWAYS_ONE;
@@ -495,10 +567,7 @@ impl<A: Application> Slave<A> {
             ident_hi,
             ident_lo,
         ]);
-        if self.owner == Some(requester) || self.owner.is_none() {
-            self.diag_pending = false;
-        }
-        Answer::Data(ResponseStatus::DataLow, diag::STANDARD_LEN + ext_len)
+        diag::STANDARD_LEN + ext_len
     }
 
     fn set_prm(&mut self, now: Instant, requester: u8, prm: &[u8]) -> Answer {
@@ -588,7 +657,16 @@ impl<A: Application> Slave<A> {
         Answer::ShortAck
     }
 
+    fn current_cfg(&self) -> &[u8] {
+        if self.state == State::DataExch {
+            &self.cfg
+        } else {
+            self.app.default_cfg()
+        }
+    }
+
     fn get_cfg(&mut self) -> Answer {
+        // The fields, not `current_cfg`: the payload buffer is borrowed beside them.
         let cfg: &[u8] = if self.state == State::DataExch {
             &self.cfg
         } else {

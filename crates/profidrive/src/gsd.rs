@@ -152,7 +152,7 @@ pub fn write(out: &mut impl Write) -> fmt::Result {
             "MaxTsdr_",
             baud.gsd_name(),
             "",
-            baud.default_max_tsdr_bits(),
+            baud.adapter_max_tsdr_bits(),
         )?;
     }
     line(out, "Redundancy", &0)?;

@@ -104,7 +104,26 @@ fn identity_rates_and_services() {
             t.b6000000,
             t.b12000000
         ],
-        [60, 60, 60, 60, 60, 100, 150, 250, 450, 800]
+        [15; 10],
+        "the transceiver answers at min TSDR (11 bit times) at every rate: 15 declared"
+    );
+    // Never looser than a VPC3+-based slave (shared/reference/gsd/CP24V1.gsd, EASY4711.gsd).
+    let vpc3 = [15, 15, 15, 15, 15, 15, 20, 35, 50, 95];
+    let declared = [
+        t.b9600,
+        t.b19200,
+        t.b45450,
+        t.b93750,
+        t.b187500,
+        t.b500000,
+        t.b1500000,
+        t.b3000000,
+        t.b6000000,
+        t.b12000000,
+    ];
+    assert!(
+        declared.iter().zip(vpc3).all(|(d, v)| *d <= v),
+        "{declared:?}"
     );
     assert_eq!(usize::from(gsd.max_diag_data_length), 8);
 }

@@ -1,0 +1,116 @@
+//! The boards the adapter is built for, as figures: one place for every number that stands
+//! for hardware.
+//!
+//! The firmware's board module configures its peripherals from these figures (the link UART's
+//! divisor, the clock tree), and hal-sim charges the simulated board exactly what the real one
+//! would cost: every link message takes its encoded bytes times the link's byte time, plus the
+//! MCU's interrupt entry, and the firmware's counted instructions are converted to time at
+//! [`Board::mcu_clock_hz`] and [`Board::cycles_per_instruction_pct`]. A scenario that passes
+//! only because a figure here is rosier than the board is a defect: change the board, not the
+//! simulation.
+#![no_std]
+#![deny(unsafe_code)]
+
+/// The serial interface between the transceiver (FPGA) and the MCU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Link {
+    /// Bits per second on the wire.
+    pub bit_rate: u32,
+    /// Bits on the wire per byte of payload (start, 8 data, stop: 10 for a UART in 8N1).
+    pub bits_per_byte: u32,
+}
+
+impl Link {
+    /// Nanoseconds that `bytes` bytes occupy the link, rounded up.
+    pub const fn transfer_ns(&self, bytes: usize) -> u64 {
+        let bits = bytes as u64 * self.bits_per_byte as u64;
+        (bits * 1_000_000_000).div_ceil(self.bit_rate as u64)
+    }
+}
+
+/// One board.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Board {
+    pub name: &'static str,
+    pub chip: &'static str,
+    /// The MCU's core clock.
+    pub mcu_clock_hz: u32,
+    /// Core cycles per counted instruction, in percent. QEMU's `-icount` counts one cycle per
+    /// instruction; a Cortex-M3 running from flash with wait states needs more.
+    pub cycles_per_instruction_pct: u32,
+    /// Core cycles from an interrupt request to the handler's first instruction.
+    pub irq_entry_cycles: u32,
+    pub link: Link,
+    pub flash_bytes: u32,
+    pub ram_bytes: u32,
+}
+
+impl Board {
+    /// Nanoseconds that `instructions` counted instructions take on this board, rounded up.
+    pub const fn instructions_ns(&self, instructions: u64) -> u64 {
+        let cycles = (instructions * self.cycles_per_instruction_pct as u64).div_ceil(100);
+        (cycles * 1_000_000_000).div_ceil(self.mcu_clock_hz as u64)
+    }
+
+    /// Nanoseconds from an interrupt request to its handler.
+    pub const fn irq_entry_ns(&self) -> u64 {
+        self.instructions_ns(0)
+            + (self.irq_entry_cycles as u64 * 1_000_000_000).div_ceil(self.mcu_clock_hz as u64)
+    }
+}
+
+/// The production board: an STM32F103C8 at 72 MHz from an 8 MHz crystal.
+///
+/// - Link: USART1 at 4.5 Mbit/s, 8N1, the fastest the F103's USART reaches (APB2 at 72 MHz,
+///   oversampling by 16). The transceiver answers every DP-V0 request from buffers, so the
+///   link carries only buffer updates and the requests the firmware decides; its byte time
+///   enters no response time.
+/// - Instructions: 150 % (two flash wait states at 72 MHz; the prefetch buffer hides part of
+///   them: a conservative figure, not a measurement).
+/// - Interrupt entry: 12 cycles, the Cortex-M3's exception entry with no wait states on the
+///   stack.
+pub const STM32F103: Board = Board {
+    name: "stm32f103",
+    chip: "STM32F103C8",
+    mcu_clock_hz: 72_000_000,
+    cycles_per_instruction_pct: 150,
+    irq_entry_cycles: 12,
+    link: Link {
+        bit_rate: 4_500_000,
+        bits_per_byte: 10,
+    },
+    flash_bytes: 64 * 1024,
+    ram_bytes: 20 * 1024,
+};
+
+/// The QEMU board (lm3s6965evb). It runs the firmware under hal-sim, which charges time as
+/// the production board would: its own figures are only its memory.
+pub const LM3S6965_QEMU: Board = Board {
+    name: "lm3s6965",
+    chip: "LM3S6965",
+    flash_bytes: 256 * 1024,
+    ram_bytes: 64 * 1024,
+    ..STM32F103
+};
+
+/// The board whose timing the simulation charges.
+pub const PRODUCTION: Board = STM32F103;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_link_byte_at_4_5_mbit_takes_ten_bits() {
+        // 10 bits at 4.5 Mbit/s = 2.222 us, rounded up to whole nanoseconds.
+        assert_eq!(STM32F103.link.transfer_ns(1), 2_223);
+        assert_eq!(STM32F103.link.transfer_ns(45), 100_000);
+    }
+
+    #[test]
+    fn instructions_cost_more_than_a_cycle_each() {
+        // 72 instructions at 150 % = 108 cycles = 1.5 us at 72 MHz.
+        assert_eq!(STM32F103.instructions_ns(72), 1_500);
+        assert_eq!(STM32F103.irq_entry_ns(), 167);
+    }
+}

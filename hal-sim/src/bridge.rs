@@ -1,0 +1,468 @@
+//! The transceiver's side of the MCU link, on board time: one home for the DP responder, the
+//! link's cost both ways, the MCU's queue, the wake-up timer, the board's storage, and the
+//! drive line behind the MCU. The co-simulation and the serial-port adapter of `qemu-run` both
+//! run the adapter through it.
+//!
+//! ```text
+//!  telegram ─► responder ─► answer (to the transmitter, after min TSDR)
+//!                 │ hand-over, watchdog, wake-up
+//!                 ▼
+//!  link to MCU: encoded bytes x byte time, one after another (an unsent outputs event is
+//!               replaced by a newer one: the newest outputs are all the MCU needs)
+//!                 ▼
+//!  MCU: interrupt entry, then the firmware handles events one at a time (its counted
+//!       instructions at the board's clock); drive answers interrupt it too
+//!                 ▼
+//!  link from MCU: each write leaves when the firmware sent it, takes its bytes x byte time,
+//!                 and lands in the responder's buffers (or the LEDs, storage, timer)
+//! ```
+//! Every figure comes from [`board::PRODUCTION`]. Time is in nanoseconds of the bus clock;
+//! events carry the transceiver's time in microseconds.
+
+use crate::drive_sim::DriveSim;
+use crate::drive_wire::DriveWire;
+use crate::firmware::{Firmware, Handled, Write};
+use board::Board;
+use dp_link::sim::SimToAdapter;
+use dp_link::{Leds, NvRecord, SlaveState, Status, ToAdapter, MAX_FRAME_LEN};
+use dp_phy::responder::{Input, Responder};
+use dp_phy::Tick;
+use std::collections::VecDeque;
+use std::io;
+
+/// An event for the MCU, owned.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Event {
+    Boot {
+        seq: u32,
+        switch: u8,
+        nv: Option<NvRecord>,
+    },
+    Telegram {
+        seq: u32,
+        baud: u8,
+        bytes: Vec<u8>,
+    },
+    Watchdog {
+        seq: u32,
+    },
+    Timer {
+        seq: u32,
+    },
+}
+
+/// An event on its way to the MCU.
+#[derive(Clone, Debug)]
+struct InFlight {
+    event: Event,
+    /// When it happened (the event's time stamp).
+    at_ns: u64,
+    /// When its first byte left, and when its last arrived.
+    start_ns: u64,
+    arrived_ns: u64,
+    outputs_only: bool,
+}
+
+/// Figures of the link and the MCU.
+#[derive(Clone, Debug, Default)]
+pub struct LinkFigures {
+    pub events: u64,
+    pub writes: u64,
+    /// Outputs events replaced by newer ones before they were sent.
+    pub outputs_replaced: u64,
+    /// For each new Data_Exchange the MCU handled: from its outputs' arrival at the MCU to
+    /// the last write of the firmware's decision in the transceiver, in ns.
+    pub outputs_to_inputs_ns: Vec<u64>,
+    /// The longest time an event waited for the MCU (queue and link).
+    pub worst_event_latency_ns: u64,
+}
+
+impl LinkFigures {
+    pub fn worst_outputs_to_inputs_ns(&self) -> Option<u64> {
+        self.outputs_to_inputs_ns.iter().copied().max()
+    }
+}
+
+/// The transceiver's MCU side.
+pub struct Bridge<F: Firmware> {
+    pub firmware: F,
+    pub responder: Responder,
+    pub board: Board,
+    /// The board's address switch.
+    pub switch: u8,
+    /// The emulated non-volatile storage.
+    pub nv: Option<NvRecord>,
+    /// The adapter's last status.
+    pub status: Status,
+    /// The drive link and the drive behind the adapter.
+    pub drive: DriveWire,
+    pub figures: LinkFigures,
+    /// What happened, in order: state and LED changes, storage writes.
+    pub events: Vec<String>,
+    clock_hz: u32,
+    to_mcu: VecDeque<InFlight>,
+    to_mcu_free_ns: u64,
+    from_mcu: VecDeque<(u64, Write)>,
+    from_mcu_free_ns: u64,
+    mcu_free_ns: u64,
+    /// The wake-up time a Timer event was sent for.
+    timer_sent_for: Option<u64>,
+}
+
+/// The status before the firmware's first.
+const STATUS_RESET: Status = Status {
+    address: 0,
+    state: SlaveState::PowerOn,
+    leds: Leds {
+        net: dp_link::Led::Off,
+        run: dp_link::Led::Off,
+        tx: dp_link::Led::Off,
+        rx: dp_link::Led::Off,
+        error: dp_link::Led::Off,
+        online: dp_link::Led::Off,
+        offline: dp_link::Led::Off,
+    },
+    nv_write: None,
+    wake_at_us: None,
+    drive_link_error: 0,
+    outputs_applied: 0,
+    fail_safes: 0,
+    malformed_telegrams: 0,
+};
+
+impl<F: Firmware> Bridge<F> {
+    /// The board around `firmware`, not yet powered (see [`Bridge::boot`]).
+    pub fn new(firmware: F, clock_hz: u32, switch: u8, nv: Option<NvRecord>) -> Bridge<F> {
+        Bridge {
+            firmware,
+            responder: Responder::new(clock_hz),
+            board: board::PRODUCTION,
+            switch,
+            nv,
+            status: STATUS_RESET,
+            drive: DriveWire::default(),
+            figures: LinkFigures::default(),
+            events: Vec::new(),
+            clock_hz,
+            to_mcu: VecDeque::new(),
+            to_mcu_free_ns: 0,
+            from_mcu: VecDeque::new(),
+            from_mcu_free_ns: 0,
+            mcu_free_ns: 0,
+            timer_sent_for: None,
+        }
+    }
+
+    fn ticks(&self, ns: u64) -> Tick {
+        ns * u64::from(self.clock_hz / 1_000_000) / 1000
+    }
+
+    /// Power-up at `now_ns`: the transceiver tells the MCU the switch and the storage.
+    pub fn boot(&mut self, now_ns: u64) {
+        self.events.push(format!(
+            "power-up: switch {:02}, storage {:?}",
+            self.switch, self.nv
+        ));
+        let seq = self.responder.next_event();
+        self.send(
+            now_ns,
+            Event::Boot {
+                seq,
+                switch: self.switch,
+                nv: self.nv,
+            },
+            false,
+        );
+    }
+
+    /// A power cycle at `now_ns`: the MCU and the transceiver restart, the drive stays.
+    pub fn power_cycle(&mut self, now_ns: u64) -> io::Result<()> {
+        self.events.push("power cycle".into());
+        self.firmware.restart()?;
+        self.responder = Responder::new(self.clock_hz);
+        self.to_mcu.clear();
+        self.from_mcu.clear();
+        self.to_mcu_free_ns = now_ns;
+        self.from_mcu_free_ns = now_ns;
+        self.mcu_free_ns = now_ns;
+        self.timer_sent_for = None;
+        self.drive.adapter_restarted();
+        self.boot(now_ns);
+        Ok(())
+    }
+
+    /// A good telegram whose last stop bit ended at `end_ns`, at rate index `baud`: the
+    /// responder's answer, if any (to be sent after min TSDR), and its hand-over to the MCU.
+    pub fn telegram(&mut self, end_ns: u64, baud: u8, bytes: &[u8]) -> Option<Vec<u8>> {
+        let now = self.ticks(end_ns);
+        let out = self.responder.step(&Input::Telegram { now, bytes });
+        if let Some(seq) = out.forward {
+            let event = Event::Telegram {
+                seq,
+                baud,
+                bytes: bytes.to_vec(),
+            };
+            self.send(end_ns, event, out.outputs_only);
+        }
+        out.response().map(<[u8]>::to_vec)
+    }
+
+    /// Whether the telegram is one the responder hands over as new outputs.
+    fn send(&mut self, at_ns: u64, event: Event, outputs_only: bool) {
+        self.figures.events += 1;
+        let len = encoded_len(&event, at_ns);
+        if outputs_only {
+            if let Some(last) = self.to_mcu.back_mut() {
+                if last.outputs_only && last.start_ns > at_ns {
+                    // Not on the wire yet: the newer outputs take its place.
+                    last.event = event;
+                    last.at_ns = at_ns;
+                    last.arrived_ns = last.start_ns + self.board.link.transfer_ns(len);
+                    self.to_mcu_free_ns = last.arrived_ns;
+                    self.figures.outputs_replaced += 1;
+                    return;
+                }
+            }
+        }
+        let start_ns = at_ns.max(self.to_mcu_free_ns);
+        let arrived_ns = start_ns + self.board.link.transfer_ns(len);
+        self.to_mcu_free_ns = arrived_ns;
+        self.to_mcu.push_back(InFlight {
+            event,
+            at_ns,
+            start_ns,
+            arrived_ns,
+            outputs_only,
+        });
+    }
+
+    /// When something happens next, if anything is due.
+    pub fn next_ns(&self) -> Option<u64> {
+        let entry = self.board.irq_entry_ns();
+        [
+            self.from_mcu.front().map(|(at, _)| *at),
+            self.responder
+                .deadline()
+                .map(|t| (t * 1000).div_ceil(u64::from(self.clock_hz / 1_000_000))),
+            self.timer_due(),
+            self.to_mcu
+                .front()
+                .map(|e| (e.arrived_ns + entry).max(self.mcu_free_ns)),
+            self.drive
+                .next_delivery_us()
+                .map(|us| (us * 1000).max(self.mcu_free_ns)),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
+    }
+
+    fn timer_due(&self) -> Option<u64> {
+        let at = self.status.wake_at_us?;
+        (self.timer_sent_for != Some(at)).then_some(at * 1000)
+    }
+
+    /// Everything due at `now_ns`, in time order.
+    pub fn poll(&mut self, now_ns: u64) -> io::Result<()> {
+        while let Some(t) = self.next_ns().filter(|t| *t <= now_ns) {
+            self.step_at(t)?;
+        }
+        Ok(())
+    }
+
+    /// The action due at `t`.
+    fn step_at(&mut self, t: u64) -> io::Result<()> {
+        if self.from_mcu.front().is_some_and(|(at, _)| *at <= t) {
+            let (at, write) = self.from_mcu.pop_front().expect("checked");
+            return self.apply(at, &write);
+        }
+        let now = self.ticks(t);
+        if self.responder.deadline().is_some_and(|d| d <= now) {
+            let out = self.responder.step(&Input::Clock { now });
+            if let Some(seq) = out.watchdog_expired {
+                self.send(t, Event::Watchdog { seq }, false);
+            }
+            return Ok(());
+        }
+        if self.timer_due().is_some_and(|at| at <= t) {
+            self.timer_sent_for = self.status.wake_at_us;
+            let seq = self.responder.next_event();
+            self.send(t, Event::Timer { seq }, false);
+            return Ok(());
+        }
+        let entry = self.board.irq_entry_ns();
+        let link_ready = self
+            .to_mcu
+            .front()
+            .map(|e| (e.arrived_ns + entry).max(self.mcu_free_ns));
+        let drive_ready = self
+            .drive
+            .next_delivery_us()
+            .map(|us| (us * 1000).max(self.mcu_free_ns));
+        match (link_ready, drive_ready) {
+            (Some(l), d) if l <= t && d.is_none_or(|d| l <= d) => {
+                let e = self.to_mcu.pop_front().expect("checked");
+                self.handle_event(l, e)
+            }
+            (_, Some(d)) if d <= t => self.handle_drive_answer(d),
+            _ => Ok(()),
+        }
+    }
+
+    /// The MCU handles `e` from `start_ns`.
+    fn handle_event(&mut self, start_ns: u64, e: InFlight) -> io::Result<()> {
+        let now_us = e.at_ns / 1000;
+        let latency = start_ns - e.at_ns;
+        self.figures.worst_event_latency_ns = self.figures.worst_event_latency_ns.max(latency);
+        let handled = match &e.event {
+            Event::Boot { seq, switch, nv } => self.firmware.exchange(&ToAdapter::Boot {
+                seq: *seq,
+                now_us,
+                switch: *switch,
+                nv: *nv,
+            })?,
+            Event::Telegram { seq, baud, bytes } => {
+                self.firmware.exchange(&ToAdapter::Telegram {
+                    seq: *seq,
+                    now_us,
+                    baud: *baud,
+                    bytes,
+                })?
+            }
+            Event::Watchdog { seq } => self
+                .firmware
+                .exchange(&ToAdapter::WatchdogExpired { seq: *seq, now_us })?,
+            Event::Timer { seq } => self
+                .firmware
+                .exchange(&ToAdapter::Timer { seq: *seq, now_us })?,
+        };
+        let decided_ns = self.take(start_ns, &handled)?;
+        if e.outputs_only {
+            self.figures
+                .outputs_to_inputs_ns
+                .push(decided_ns - e.arrived_ns);
+        }
+        Ok(())
+    }
+
+    /// The drive's answer interrupts the MCU at `start_ns`.
+    fn handle_drive_answer(&mut self, start_ns: u64) -> io::Result<()> {
+        let Some((at_us, bytes)) = self.drive.take_delivery(start_ns / 1000) else {
+            return Ok(());
+        };
+        self.firmware.drive_send(&bytes)?;
+        let handled = self
+            .firmware
+            .exchange(&ToAdapter::Sim(SimToAdapter::DriveBytes {
+                now_us: at_us,
+                drive_rx_bytes: self.drive.delivered,
+            }))?;
+        self.take(start_ns, &handled)?;
+        Ok(())
+    }
+
+    /// Puts the writes of an event handled from `start_ns` on the link, and the drive bytes
+    /// on the drive line; returns when the decision's last write landed in the transceiver
+    /// (when the firmware finished, if it wrote nothing for it).
+    fn take(&mut self, start_ns: u64, handled: &Handled) -> io::Result<u64> {
+        let done_ns = start_ns + self.board.instructions_ns(u64::from(handled.instructions));
+        let mut decided_ns = None;
+        for (i, (instructions, write)) in handled.writes.iter().enumerate() {
+            let sent = start_ns + self.board.instructions_ns(u64::from(*instructions));
+            let begin = sent.max(self.from_mcu_free_ns);
+            let arrived = begin + self.board.link.transfer_ns(write.encoded_len());
+            self.from_mcu_free_ns = arrived;
+            if i < handled.decision_writes {
+                decided_ns = Some(arrived);
+            }
+            self.figures.writes += 1;
+            self.from_mcu.push_back((arrived, write.clone()));
+        }
+        self.mcu_free_ns = done_ns;
+        self.drive
+            .collect(&mut self.firmware, handled.drive_tx_bytes, done_ns / 1000)?;
+        Ok(decided_ns.unwrap_or(done_ns))
+    }
+
+    /// A write lands at `at_ns`.
+    fn apply(&mut self, at_ns: u64, write: &Write) -> io::Result<()> {
+        let now = self.ticks(at_ns);
+        self.responder.step(&Input::Write {
+            now,
+            write: &write.as_message(),
+        });
+        if let Write::Status(status) = write {
+            self.apply_status(*status);
+        }
+        Ok(())
+    }
+
+    fn apply_status(&mut self, new: Status) {
+        let old = self.status;
+        if new.drive_link_error != old.drive_link_error {
+            self.events.push(match new.drive_link_error {
+                0 => "drive link: working".into(),
+                e => format!("drive link: error 0x{e:02X}"),
+            });
+        }
+        if new.state != old.state {
+            self.events
+                .push(format!("slave: {:?} -> {:?}", old.state, new.state));
+        }
+        if new.address != old.address {
+            self.events.push(format!("slave address: {}", new.address));
+        }
+        if new.leds != old.leds {
+            let l = new.leds;
+            self.events.push(format!(
+                "leds: net {:?}, run {:?}, tx {:?}, rx {:?}, error {:?}, online {:?}, offline {:?}",
+                l.net, l.run, l.tx, l.rx, l.error, l.online, l.offline
+            ));
+        }
+        if let Some(record) = new.nv_write {
+            self.nv = Some(record);
+            self.events.push(format!(
+                "storage: address {}, no_add_chg {}",
+                record.address, record.no_add_chg
+            ));
+        }
+        if new.wake_at_us != old.wake_at_us {
+            self.timer_sent_for = None;
+        }
+        self.status = new;
+    }
+
+    /// The drive as it is at `now_us`.
+    pub fn drive_at(&mut self, now_us: u64) -> &mut DriveSim {
+        self.drive.advance_to(now_us);
+        &mut self.drive.drive
+    }
+
+    /// Whether the transceiver holds nothing for the MCU and the MCU nothing for it.
+    pub fn idle(&self) -> bool {
+        self.to_mcu.is_empty() && self.from_mcu.is_empty()
+    }
+}
+
+/// The bytes `event` takes on the link.
+fn encoded_len(event: &Event, at_ns: u64) -> usize {
+    let now_us = at_ns / 1000;
+    let message = match event {
+        Event::Boot { seq, switch, nv } => ToAdapter::Boot {
+            seq: *seq,
+            now_us,
+            switch: *switch,
+            nv: *nv,
+        },
+        Event::Telegram { seq, baud, bytes } => ToAdapter::Telegram {
+            seq: *seq,
+            now_us,
+            baud: *baud,
+            bytes,
+        },
+        Event::Watchdog { seq } => ToAdapter::WatchdogExpired { seq: *seq, now_us },
+        Event::Timer { seq } => ToAdapter::Timer { seq: *seq, now_us },
+    };
+    let mut frame = [0u8; MAX_FRAME_LEN];
+    dp_link::encode(&message, &mut frame).map_or(MAX_FRAME_LEN, |f| f.len())
+}

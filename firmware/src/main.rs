@@ -47,7 +47,19 @@ fn selftest() {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
-    error!("panic: {}", defmt::Display2Format(info));
+    // The message only where it is a plain string, and the location: formatting arguments
+    // would link core::fmt, a tenth of the production board's flash.
+    let message = info.message().as_str().unwrap_or("(formatted message)");
+    match info.location() {
+        Some(at) => error!(
+            "panic: panicked at {=str}:{=u32}:{=u32}:\n{=str}",
+            at.file(),
+            at.line(),
+            at.column(),
+            message
+        ),
+        None => error!("panic: {=str}", message),
+    }
     board::exit_failure()
 }
 
@@ -79,6 +91,9 @@ macro_rules! adapter_app {
 
             #[local]
             struct Local {
+                /// The adapter after the first Boot. Set up here, not as a task-local with an
+                /// initial value: that would keep a copy of its initial image in flash.
+                adapter: Option<Adapter<crate::DriveApp>>,
                 link_rx: board::Uart,
                 link_tx: Option<board::Uart>,
                 producer: Producer<'static, { crate::LINK_QUEUE_LEN }>,
@@ -92,7 +107,7 @@ macro_rules! adapter_app {
                 let (producer, consumer) = LINK_QUEUE.try_split().unwrap();
                 let (wake, woken) = make_channel!((), 1);
                 info!("boot: {}", board::NAME);
-                info!("cycle counter: 1000 nops count {=u32} cycles", board::calibrate());
+                info!("cycle counter: 100 nops count {=u32} cycles", board::calibrate());
                 let mut link_tx = board::link_tx();
                 send(&mut link_tx, &FromAdapter::Ready);
                 crate::selftest();
@@ -100,6 +115,7 @@ macro_rules! adapter_app {
                 (
                     Shared {},
                     Local {
+                        adapter: None,
                         link_rx: board.link,
                         link_tx: Some(link_tx),
                         producer,
@@ -152,7 +168,7 @@ macro_rules! adapter_app {
             }
 
             /// Decodes frames, runs the adapter, sends the replies.
-            #[task(priority = 1, local = [consumer, link_tx, adapter: Option<Adapter<crate::DriveApp>> = None, deframer: Deframer = Deframer::new()])]
+            #[task(priority = 1, local = [consumer, link_tx, adapter, deframer: Deframer = Deframer::new()])]
             async fn link(cx: link::Context, mut woken: Receiver<'static, (), 1>) {
                 let tx = cx.local.link_tx.as_mut().unwrap();
                 while woken.recv().await.is_ok() {

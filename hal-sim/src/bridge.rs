@@ -362,18 +362,19 @@ impl<F: Firmware> Bridge<F> {
     }
 
     /// Puts the writes of an event handled from `start_ns` on the link, and the drive bytes
-    /// on the drive line; returns when the decision's last write landed in the transceiver
-    /// (when the firmware finished, if it wrote nothing for it).
+    /// on the drive line; returns when the decision was in the transceiver: its last write
+    /// landed, or (nothing changed) the firmware had taken it.
     fn take(&mut self, start_ns: u64, handled: &Handled) -> io::Result<u64> {
         let done_ns = start_ns + self.board.instructions_ns(u64::from(handled.instructions));
-        let mut decided_ns = None;
+        let mut decided_ns =
+            start_ns + self.board.instructions_ns(u64::from(handled.decision_instructions));
         for (i, (instructions, write)) in handled.writes.iter().enumerate() {
             let sent = start_ns + self.board.instructions_ns(u64::from(*instructions));
             let begin = sent.max(self.from_mcu_free_ns);
             let arrived = begin + self.board.link.transfer_ns(write.encoded_len());
             self.from_mcu_free_ns = arrived;
             if i < handled.decision_writes {
-                decided_ns = Some(arrived);
+                decided_ns = arrived;
             }
             self.figures.writes += 1;
             self.from_mcu.push_back((arrived, write.clone()));
@@ -381,7 +382,7 @@ impl<F: Firmware> Bridge<F> {
         self.mcu_free_ns = done_ns;
         self.drive
             .collect(&mut self.firmware, handled.drive_tx_bytes, done_ns / 1000)?;
-        Ok(decided_ns.unwrap_or(done_ns))
+        Ok(decided_ns)
     }
 
     /// A write lands at `at_ns`.

@@ -379,8 +379,8 @@ impl<F: Firmware> CoSim<F> {
     }
 
     /// A class 2 master's request (a commissioning tool), for services profirust does not
-    /// offer (Set_Slave_Add): sent bit by bit after TSYN, the answer read back from the line
-    /// within `slot_bits`. Replaces any running master.
+    /// offer (Set_Slave_Add, Get_Cfg, Rd_Inp, ...): sent bit by bit after TSYN, the answer
+    /// read back from the line (it must start within `slot_bits`). Replaces any running master.
     pub fn tool_request(
         &mut self,
         setup: MasterSetup,
@@ -394,7 +394,10 @@ impl<F: Firmware> CoSim<F> {
         let cpb = tool.phy.timing().clocks_per_bit();
         let sent_bits = (request.len() as u64 + 4) * 11;
         self.master = Some(tool);
-        let end = self.now + (sent_bits + u64::from(dp_consts::TSYN_BITS) + slot_bits) * cpb;
+        // The answer must start within the slot time, and may then take its full length.
+        let longest_answer = 11 * dp_consts::MAX_TELEGRAM_LEN as u64;
+        let end = self.now
+            + (sent_bits + u64::from(dp_consts::TSYN_BITS) + slot_bits + longest_answer) * cpb;
         let answered = self.run_until(end, |s| {
             let received = &s.master.as_ref().unwrap().phy.received;
             fdl::Repr::parse_bytes(received).is_ok()

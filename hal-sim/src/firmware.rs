@@ -74,6 +74,8 @@ pub struct Handled {
     pub writes: Vec<(u32, Write)>,
     /// How many of them carry the event's decision (the rest follow the drive cycle).
     pub decision_writes: usize,
+    /// Instructions until the decision's writes were sent.
+    pub decision_instructions: u32,
     /// Instructions until the event was handled.
     pub instructions: u32,
     /// Bytes sent to the drive UART since power-up.
@@ -400,6 +402,7 @@ impl Firmware for Qemu {
                         .writes
                         .extend(unmarked.drain(..).map(|w| (instructions, w)));
                     handled.decision_writes = handled.writes.len();
+                    handled.decision_instructions = instructions;
                 }
                 Some(FromAdapter::Sim(SimFromAdapter::Done {
                     instructions,

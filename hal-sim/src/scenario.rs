@@ -23,10 +23,10 @@ pub enum Kind {
     RateChange { from: Baud, to: Baud },
     /// The master disappears: watchdog, fail-safe, then recovery.
     WatchdogFailSafe,
-    /// A Set_Prm with a wrong Ident_Number.
-    PrmFault,
-    /// A Chk_Cfg that is none of the PPOs.
-    CfgFault,
+    /// A Set_Prm with a wrong Ident_Number, at a rate.
+    PrmFault(Baud),
+    /// A Chk_Cfg that is none of the PPOs, at a rate.
+    CfgFault(Baud),
     /// Set_Slave_Add with the switch at 0, then a power cycle.
     SetSlaveAdd,
     /// Switch 99 restores the factory defaults.
@@ -70,8 +70,10 @@ pub fn all() -> Vec<Scenario> {
             },
         ),
         ("watchdog-fail-safe", Kind::WatchdogFailSafe),
-        ("prm-fault", Kind::PrmFault),
-        ("cfg-fault", Kind::CfgFault),
+        ("prm-fault", Kind::PrmFault(Baud::B1500000)),
+        ("cfg-fault", Kind::CfgFault(Baud::B1500000)),
+        ("prm-fault-12M", Kind::PrmFault(Baud::B12000000)),
+        ("cfg-fault-12M", Kind::CfgFault(Baud::B12000000)),
         ("set-slave-add", Kind::SetSlaveAdd),
         ("factory-reset", Kind::FactoryReset),
         ("line-noise", Kind::LineNoise),
@@ -161,6 +163,64 @@ pub(crate) fn ext_diag<F: Firmware>(sim: &mut CoSim<F>) -> Vec<u8> {
         .unwrap_or_default()
 }
 
+/// The DP-V0 services profirust does not send, each from a commissioning tool (station 3, a
+/// second master) after data exchange at `baud`: each must be answered, and as the slave
+/// decides in that state (the responder's answers against the firmware's are proven bit for
+/// bit by dp-phy's tests; here they are timed on the wire with every other answer).
+fn probe_services<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, baud: Baud) -> io::Result<()> {
+    use fdl::ResponseStatus as S;
+    // Let the last exchange finish on the line (the master's request, the adapter's answer).
+    sim.run_for_us(300 * 1_000_000 / u64::from(baud.bits_per_second()) + 100)?;
+    let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
+    let probes: [(&str, Option<Sap>, &[u8], Option<S>); 6] = [
+        ("FDL_Status", None, &[], Some(S::Ok)),
+        ("Get_Cfg", Some(Sap::GET_CFG), &[], Some(S::DataLow)),
+        ("Rd_Inp", Some(Sap::RD_INP), &[], Some(S::DataLow)),
+        ("Rd_Outp", Some(Sap::RD_OUTP), &[], Some(S::DataLow)),
+        ("Slave_Diag from another master", Some(Sap::SLAVE_DIAG), &[], Some(S::DataLow)),
+        (
+            "Set_Slave_Add with the switch set",
+            Some(Sap::SET_SLAVE_ADD),
+            &[9, hi, lo, 0],
+            Some(S::SapNotActivated),
+        ),
+    ];
+    for (name, sap, payload, want) in probes {
+        let function = if sap.is_none() {
+            RequestFunction::FdlStatus
+        } else {
+            RequestFunction::SrdLow
+        };
+        let request = Repr::Data(DataRepr {
+            da: SWITCH_ADDRESS,
+            sa: 3,
+            dsap: sap,
+            ssap: sap.map(|_| Sap::MASTER_MS0),
+            fc: FrameControl::Request {
+                fcb: true,
+                fcv: false,
+                function,
+            },
+            payload,
+        });
+        let mut bytes = vec![0u8; request.buffer_len()];
+        request.emit(&mut bytes).expect("a valid request");
+        let mut tool = MasterSetup::new(baud, SWITCH_ADDRESS);
+        tool.address = 3;
+        let slot = u64::from(baud.default_slot_time_bits());
+        let answer = sim.tool_request(tool, &bytes, slot)?;
+        let status = answer.as_deref().and_then(|a| match Repr::parse_bytes(a) {
+            Ok((Repr::Data(d), _)) => match d.fc {
+                FrameControl::Response { status, .. } => Some(status),
+                _ => None,
+            },
+            _ => None,
+        });
+        c.check(format!("{name} at {baud}: {want:?}"), status == want);
+    }
+    Ok(())
+}
+
 /// A master whose parameters or configuration the slave refuses: no data exchange, the
 /// master reads the fault in the diagnosis, the error LED blinks at its rate.
 fn refused<F: Firmware>(
@@ -216,6 +276,11 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
                 format!("transceiver locked at {baud}"),
                 sim.figures.locked == Some(baud),
             );
+            // The master steps aside for the tool and comes back for the run's echo check
+            // (nothing runs after this).
+            let master = sim.master.take();
+            probe_services(&mut sim, &mut c, baud)?;
+            sim.master = master;
         }
         Kind::RateChange { from, to } => {
             sim.start_master(MasterSetup::new(from, SWITCH_ADDRESS));
@@ -255,8 +320,8 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
             let ok = exchange(&mut sim, 20, limit_us(baud))?;
             c.check("data exchange after the master returned", ok);
         }
-        Kind::PrmFault => {
-            let mut setup = MasterSetup::new(Baud::B1500000, SWITCH_ADDRESS);
+        Kind::PrmFault(baud) => {
+            let mut setup = MasterSetup::new(baud, SWITCH_ADDRESS);
             setup.ident_number ^= 0x0001;
             refused(
                 &mut sim,
@@ -266,8 +331,8 @@ pub fn run<F: Firmware>(scenario: &Scenario, firmware: F) -> io::Result<(Outcome
                 Led::Blink2Hz,
             )?;
         }
-        Kind::CfgFault => {
-            let mut setup = MasterSetup::new(Baud::B1500000, SWITCH_ADDRESS);
+        Kind::CfgFault(baud) => {
+            let mut setup = MasterSetup::new(baud, SWITCH_ADDRESS);
             setup.config = vec![0xF5, 0xF1];
             refused(
                 &mut sim,

@@ -34,18 +34,23 @@ pub(crate) struct Image {
 
 pub(crate) const IMAGES: [Image; 2] = [
     Image {
-        board: "lm3s6965",
+        board: board::LM3S6965_QEMU.name,
         features: &[],
-        flash_limit: 256 * 1024,
-        ram_limit: 64 * 1024,
+        flash_limit: board::LM3S6965_QEMU.flash_bytes as u64,
+        ram_limit: board::LM3S6965_QEMU.ram_bytes as u64,
     },
     Image {
-        board: "stm32f103",
+        board: board::STM32F103.name,
         features: &["--no-default-features", "--features", "stm32f103"],
-        flash_limit: 64 * 1024,
-        ram_limit: 20 * 1024,
+        // The chip has 64 KiB; the image keeps to 40 KiB, so that DP-V1 and what follows
+        // have room.
+        flash_limit: PRODUCTION_FLASH_BUDGET,
+        ram_limit: board::STM32F103.ram_bytes as u64,
     },
 ];
+
+/// The flash the production image may take (of the STM32F103C8's 64 KiB).
+const PRODUCTION_FLASH_BUDGET: u64 = 40 * 1024;
 
 pub fn run(args: &[String]) -> Result<()> {
     check_flags(args, &["--overwrite"], &["--only"])?;

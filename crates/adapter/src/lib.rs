@@ -369,8 +369,9 @@ impl<A: Application + Background> Adapter<A> {
     }
 
     /// Handles one event (a Boot included: the caller built this adapter for it): the slave's
-    /// decision, its writes, [`Out::DecisionWritten`], the drive application's cycle, its
-    /// writes, and last the status if it changed.
+    /// decision, its writes, [`Out::DecisionWritten`], then (but after new outputs, which
+    /// only fill the process image) the drive application's cycle, its writes, and last the
+    /// status if it changed.
     pub fn handle(&mut self, message: &ToAdapter, out: &mut dyn FnMut(Out)) {
         let now_us = message.now_us();
         self.now_us = now_us;
@@ -378,6 +379,7 @@ impl<A: Application + Background> Adapter<A> {
         // Events the transceiver's registers wait for: the registers are written after them
         // even when nothing changed, so that it knows the decision was taken.
         let mut decided = false;
+        let mut new_outputs = false;
         match *message {
             ToAdapter::Boot { seq, .. } => {
                 self.seen = seq;
@@ -389,7 +391,8 @@ impl<A: Application + Background> Adapter<A> {
                 self.seen = seq;
                 match fdl::Repr::parse_bytes(bytes) {
                     Ok((request, _)) => {
-                        decided = !self.is_new_outputs(&request);
+                        new_outputs = self.is_new_outputs(&request);
+                        decided = !new_outputs;
                         self.slave.app_mut().inner.rate(baud);
                         self.slave.process_fresh(now, &request);
                     }
@@ -412,6 +415,12 @@ impl<A: Application + Background> Adapter<A> {
         }
         self.write_buffers(now, decided, out);
         out(Out::DecisionWritten);
+        if new_outputs {
+            // The process image holds them; the drive application's cycle runs on the drive's
+            // answers and its wake-ups, and its next PZD transaction takes them. Running it
+            // here would only keep the MCU from the next event.
+            return;
+        }
 
         self.background_at = self.slave.app_mut().inner.run(now_us);
         if let Some(address) = self.slave.app_mut().inner.requested_station() {

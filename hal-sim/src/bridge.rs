@@ -366,8 +366,10 @@ impl<F: Firmware> Bridge<F> {
     /// landed, or (nothing changed) the firmware had taken it.
     fn take(&mut self, start_ns: u64, handled: &Handled) -> io::Result<u64> {
         let done_ns = start_ns + self.board.instructions_ns(u64::from(handled.instructions));
-        let mut decided_ns =
-            start_ns + self.board.instructions_ns(u64::from(handled.decision_instructions));
+        let mut decided_ns = start_ns
+            + self
+                .board
+                .instructions_ns(u64::from(handled.decision_instructions));
         for (i, (instructions, write)) in handled.writes.iter().enumerate() {
             let sent = start_ns + self.board.instructions_ns(u64::from(*instructions));
             let begin = sent.max(self.from_mcu_free_ns);

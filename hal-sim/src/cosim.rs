@@ -110,7 +110,8 @@ pub struct Master {
     pub tool: bool,
 }
 
-fn profirust_baud(baud: Baud) -> profirust::Baudrate {
+/// profirust's name for a rate.
+pub fn profirust_baud(baud: Baud) -> profirust::Baudrate {
     use profirust::Baudrate as B;
     match baud {
         Baud::B9600 => B::B9600,

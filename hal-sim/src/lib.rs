@@ -12,6 +12,7 @@
 
 pub mod bridge;
 pub mod cosim;
+pub mod dp_cycle;
 pub mod drive_scenarios;
 pub mod drive_sim;
 pub mod drive_wire;

@@ -172,12 +172,19 @@ fn probe_services<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, baud: Baud) -
     // Let the last exchange finish on the line (the master's request, the adapter's answer).
     sim.run_for_us(300 * 1_000_000 / u64::from(baud.bits_per_second()) + 100)?;
     let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
-    let probes: [(&str, Option<Sap>, &[u8], Option<S>); 6] = [
+    // (what, the service's SAP (none: FDL_Status), payload, the answer's status)
+    type Probe<'a> = (&'a str, Option<Sap>, &'a [u8], Option<S>);
+    let probes: [Probe; 6] = [
         ("FDL_Status", None, &[], Some(S::Ok)),
         ("Get_Cfg", Some(Sap::GET_CFG), &[], Some(S::DataLow)),
         ("Rd_Inp", Some(Sap::RD_INP), &[], Some(S::DataLow)),
         ("Rd_Outp", Some(Sap::RD_OUTP), &[], Some(S::DataLow)),
-        ("Slave_Diag from another master", Some(Sap::SLAVE_DIAG), &[], Some(S::DataLow)),
+        (
+            "Slave_Diag from another master",
+            Some(Sap::SLAVE_DIAG),
+            &[],
+            Some(S::DataLow),
+        ),
         (
             "Set_Slave_Add with the switch set",
             Some(Sap::SET_SLAVE_ADD),

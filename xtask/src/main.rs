@@ -3,6 +3,8 @@
 //! - `baud-sweep [--quick] [--shard i/N]`: the autobaud regression (rate x clock offset x noise x
 //!   start phase, from power-up and after a rate change); CSV and SVG under `target/baud-sweep/`.
 //! - `phy-bench [--runs N]`: the transceiver model's speed, strict and fast mode.
+//! - `dp-cycle [--slaves N] [--cycles N]`: ten adapters on one line with one profirust master,
+//!   at 1.5 and 12 Mbit/s for PPO1-5: the master's cycle against the line's floor.
 //! - `gsd [--out PATH]`: the adapter's GSD file, from the constants the firmware uses.
 //! - `qemu-run [--port pty|DEVICE] [--baud N] [--switch N] [--seconds N]`: the adapter
 //!   interactively, on the simulated bus or on a serial port for an external master.
@@ -10,6 +12,7 @@
 //!   scenario by scenario, with golden files in `ci/expected/qemu-test/`.
 
 mod baud_sweep;
+mod dp_cycle;
 mod gsd;
 mod phy_bench;
 mod qemu_run;
@@ -28,15 +31,20 @@ fn main() {
 fn try_main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some((task, rest)) = args.split_first() else {
-        bail!("usage: cargo xtask <qemu-test|qemu-run|baud-sweep|phy-bench|gsd> [options]");
+        bail!(
+            "usage: cargo xtask <qemu-test|qemu-run|baud-sweep|phy-bench|dp-cycle|gsd> [options]"
+        );
     };
     match task.as_str() {
         "baud-sweep" => baud_sweep::run(rest),
         "phy-bench" => phy_bench::run(rest),
+        "dp-cycle" => dp_cycle::run(rest),
         "gsd" => gsd::run(rest),
         "qemu-test" => qemu_test::run(rest),
         "qemu-run" => qemu_run::run(rest),
-        other => bail!("unknown task `{other}`: qemu-test, qemu-run, baud-sweep, phy-bench or gsd"),
+        other => bail!(
+            "unknown task `{other}`: qemu-test, qemu-run, baud-sweep, phy-bench, dp-cycle or gsd"
+        ),
     }
 }
 

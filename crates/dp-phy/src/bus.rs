@@ -127,7 +127,7 @@ impl Bus {
 
     /// The line level at `now` for the stations' driver outputs.
     #[inline(always)]
-    pub fn resolve<const N: usize>(&mut self, now: Tick, drivers: [Option<bool>; N]) -> bool {
+    pub fn resolve(&mut self, now: Tick, drivers: impl IntoIterator<Item = Option<bool>>) -> bool {
         let mut level = true;
         let mut driving = 0;
         for d in drivers.into_iter().flatten() {

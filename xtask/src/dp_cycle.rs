@@ -1,0 +1,83 @@
+//! `cargo xtask dp-cycle [--slaves N] [--cycles N]`: ten adapters on one simulated line with
+//! one profirust master, at 1.5 and 12 Mbit/s, PPO1-5; the master's median cycle against the
+//! line's floor, and where the cycle's bit times went (a benchmark that prints figures, not a
+//! timed test).
+
+use crate::{check_flags, flag_value};
+use anyhow::{Context, Result};
+use dp_consts::Baud;
+use hal_sim::dp_cycle;
+use profidrive::ppo::Ppo;
+
+const PPOS: [Ppo; 5] = [Ppo::Ppo1, Ppo::Ppo2, Ppo::Ppo3, Ppo::Ppo4, Ppo::Ppo5];
+const RATES: [Baud; 2] = [Baud::B1500000, Baud::B12000000];
+
+pub fn run(args: &[String]) -> Result<()> {
+    check_flags(args, &[], &["--slaves", "--cycles"])?;
+    let slaves: usize = flag_value(args, "--slaves")?
+        .map_or(Ok(10), str::parse)
+        .context("--slaves takes a number")?;
+    let cycles: usize = flag_value(args, "--cycles")?
+        .map_or(Ok(50), str::parse)
+        .context("--cycles takes a number")?;
+    let mut runs = Vec::new();
+    for baud in RATES {
+        for ppo in PPOS {
+            let r = dp_cycle::run(baud, ppo, slaves, cycles)?;
+            println!(
+                "dp-cycle: rate={} ppo=PPO{} slaves={} cycle_us={:.1} floor_us={:.1} ratio={:.3}",
+                baud,
+                ppo.number(),
+                r.slaves,
+                r.cycle_us,
+                r.floor_us,
+                r.ratio()
+            );
+            runs.push(r);
+        }
+    }
+    for baud in RATES {
+        println!("breakdown at {baud} (bit times per cycle, mean of {cycles} cycles):");
+        println!(
+            "  {:<5} {:>8} {:>8} {:>9} {:>6} {:>7} {:>10} {:>6} {:>11}",
+            "ppo",
+            "cycle",
+            "floor",
+            "requests",
+            "tsdr",
+            "tsdr %",
+            "responses",
+            "idle",
+            "token+other"
+        );
+        for r in runs.iter().filter(|r| r.baud == baud) {
+            let b = r.breakdown;
+            let cycle_bits = r.cycle_us * f64::from(baud.bits_per_second()) / 1e6;
+            let floor = dp_cycle::floor_bits(r.ppo, r.slaves);
+            println!(
+                "  PPO{:<2} {:>8.0} {:>8} {:>9} {:>6} {:>6.1}% {:>10} {:>6} {:>11}",
+                r.ppo.number(),
+                cycle_bits,
+                floor,
+                b.request_bits,
+                b.tsdr_bits,
+                100.0 * b.tsdr_bits as f64 / cycle_bits,
+                b.response_bits,
+                b.idle_bits,
+                b.other_telegram_bits
+            );
+        }
+        let worst = runs
+            .iter()
+            .filter(|r| r.baud == baud)
+            .map(|r| r.worst_tsdr_bits)
+            .max()
+            .unwrap_or(0);
+        println!(
+            "  the adapters' TSDR: at most {worst} bit times each (min TSDR 11); idle: TSYN (33 \
+             bit times before every request) and the master's own gaps; token+other: the \
+             master's token to itself, its GAP polls and Global_Control"
+        );
+    }
+    Ok(())
+}

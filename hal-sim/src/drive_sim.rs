@@ -36,7 +36,7 @@
 
 use drive_link::fieldbus::{self, index as fb, index_of};
 use profidrive::codes::{CodeKind, FunctionCode};
-use profidrive::drive::{Drive, DriveError, FaultRecord};
+use profidrive::drive::{DriveError, FaultRecord, ImmediateDrive};
 use profidrive::words::{control, rose, status};
 
 pub use drive_link::{CONTROL_WORD_REGISTER as CONTROL_WORD, STATUS_WORD_REGISTER as STATUS_WORD};
@@ -411,7 +411,7 @@ impl DriveSim {
     }
 }
 
-impl Drive for DriveSim {
+impl ImmediateDrive for DriveSim {
     fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
         self.contact()?;
         self.read_register(code.0)
@@ -691,7 +691,7 @@ mod tests {
         assert_eq!(d.warning(), Some(ALARM_COMMUNICATION_LOST));
         // AL.061 shows in DE.00 as a warning record (bit 6), and contact clears it.
         assert_eq!(d.read_register(FAULT_RECORD).unwrap(), 0x40 | 61);
-        Drive::read_status(&mut d).unwrap();
+        ImmediateDrive::read_status(&mut d).unwrap();
         assert_eq!(d.warning(), None);
     }
 
@@ -722,9 +722,15 @@ mod tests {
             Err(DriveError::InvalidData)
         );
         d.link_fault = LinkFault::Disconnected;
-        assert_eq!(Drive::read_status(&mut d), Err(DriveError::NoAnswer));
+        assert_eq!(
+            ImmediateDrive::read_status(&mut d),
+            Err(DriveError::NoAnswer)
+        );
         d.link_fault = LinkFault::CrcError;
-        assert_eq!(Drive::read_status(&mut d), Err(DriveError::CrcError));
+        assert_eq!(
+            ImmediateDrive::read_status(&mut d),
+            Err(DriveError::CrcError)
+        );
     }
 
     #[test]

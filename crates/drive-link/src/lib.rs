@@ -25,7 +25,7 @@ pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US, LED_ACTIVITY_US, REWRIT
 use embedded_hal_nb::serial::{Error as _, ErrorKind as UartError, Read, Write};
 use heapless09::Vec;
 use profidrive::codes::FunctionCode;
-use profidrive::drive::{Drive, DriveError};
+use profidrive::drive::{DriveError, ImmediateDrive};
 use rmodbus::client::ModbusRequest;
 use rmodbus::{ErrorKind, ModbusProto};
 
@@ -420,7 +420,7 @@ impl<U: Read<u8> + Write<u8>, C: FnMut() -> u64> BlockingDrive<U, C> {
     }
 }
 
-impl<U: Read<u8> + Write<u8>, C: FnMut() -> u64> Drive for BlockingDrive<U, C> {
+impl<U: Read<u8> + Write<u8>, C: FnMut() -> u64> ImmediateDrive for BlockingDrive<U, C> {
     fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
         match self.run(Op::Read(code.0))? {
             Outcome::Value(v) => Ok(v),

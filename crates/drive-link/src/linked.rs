@@ -11,11 +11,10 @@
 //! - The PZD mapping (the targets and sources of PZD2..N) lives in the drive's mapping
 //!   registers. The link writes the ones that changed before the next cycle, and all of them
 //!   again after the link failed (the drive may have restarted).
-//! - `read`, `write`, `write_control` and `read_status` are parameter requests: the first call
-//!   queues the transaction and defers ([`Drive::take_deferred`]); once answered, the same
-//!   call returns the answer. Answers are kept until a caller's sequence of calls is complete
-//!   (`take_deferred` returns false), so a read-then-write sequence replays to its end.
-//!   Parameter requests go before the next cycle.
+//! - Parameter transactions are submitted ([`Drive::submit`]) and queued: each gets a ticket,
+//!   goes before the next cycle, and its answer waits for [`Drive::poll`] with that ticket (the
+//!   last few answers are kept; one nobody asks for is forgotten). Nothing is replayed: a
+//!   transaction reaches the drive once.
 //! - No PZD configuration yet (before data exchange): the link reads the status word every
 //!   [`KEEPALIVE_US`], so a lost drive shows before the master asks, and the drive's own
 //!   communication alarm stays quiet.
@@ -25,13 +24,11 @@
 //!   delayed by more than one short transaction.
 
 use crate::{FieldbusGroup, PZD_IN_MAP, PZD_OUT_MAP};
-use crate::{
-    ModbusMaster, Op, Outcome, CONTROL_WORD_REGISTER, MAX_PZD_WORDS, STATUS_WORD_REGISTER,
-};
+use crate::{ModbusMaster, Op, Outcome, MAX_PZD_WORDS, STATUS_WORD_REGISTER};
 use embedded_hal_nb::serial::{Read, Write};
 use heapless09::{Deque, Vec};
 use profidrive::codes::FunctionCode;
-use profidrive::drive::{Drive, DriveError};
+use profidrive::drive::{Drive, DriveError, Submitted, Ticket, Transaction};
 
 /// The status-word poll period while there is no PZD configuration.
 pub const KEEPALIVE_US: u64 = 100_000;
@@ -40,15 +37,15 @@ pub const REWRITE_US: u64 = 10_000;
 /// How long a request or an answer keeps seed 000's TX or RX LED flashing.
 pub const LED_ACTIVITY_US: u64 = 200_000;
 
-/// Parameter requests waiting for the link.
+/// Parameter transactions waiting for the link.
 const QUEUE: usize = 4;
-/// Answers kept for callers that replay their calls.
+/// Answers kept until their caller polls for them.
 const ANSWERS: usize = 8;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 enum Job {
-    Request(Op),
+    Request(Ticket, Op),
     /// Writes mapping register: `(out, slot)`, slot 0 is PZD2.
     Map(bool, usize),
     /// A PZD cycle; `write`: the outputs it writes, `None` for a cycle that only reads.
@@ -85,9 +82,9 @@ pub struct LinkedDrive<U> {
     in_words: usize,
     link_error: Option<DriveError>,
     job: Option<Job>,
-    requests: Deque<Op, QUEUE>,
-    answers: Vec<(Op, Result<Outcome, DriveError>), ANSWERS>,
-    deferred: bool,
+    requests: Deque<(Ticket, Op), QUEUE>,
+    answers: Vec<(Ticket, Op, Result<Outcome, DriveError>), ANSWERS>,
+    next_ticket: u16,
     next_keepalive_us: u64,
     group: FieldbusGroup,
     /// The last transaction was a cycle: the group may have the next one.
@@ -117,7 +114,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             job: None,
             requests: Deque::new(),
             answers: Vec::new(),
-            deferred: false,
+            next_ticket: 0,
             next_keepalive_us: 0,
             group: FieldbusGroup::default(),
             cycle_ran: false,
@@ -203,8 +200,8 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
     }
 
     fn next_job(&mut self, now_us: u64) -> Option<Job> {
-        if let Some(op) = self.requests.pop_front() {
-            return Some(Job::Request(op));
+        if let Some((ticket, op)) = self.requests.pop_front() {
+            return Some(Job::Request(ticket, op));
         }
         let slots = self.words.saturating_sub(1);
         for slot in 0..slots {
@@ -241,7 +238,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
 
     fn op(&self, job: Job) -> Op {
         match job {
-            Job::Request(op) => op,
+            Job::Request(_, op) => op,
             Job::Map(true, slot) => Op::Write(PZD_OUT_MAP + 1 + slot as u16, self.targets[slot]),
             Job::Map(false, slot) => Op::Write(PZD_IN_MAP + 1 + slot as u16, self.sources[slot]),
             Job::Cycle {
@@ -278,12 +275,12 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             }
         }
         match job {
-            Job::Request(op) => {
+            Job::Request(ticket, op) => {
                 self.figures.requests += 1;
                 if self.answers.is_full() {
                     let _ = self.answers.remove(0);
                 }
-                let _ = self.answers.push((op, result));
+                let _ = self.answers.push((ticket, op, result));
             }
             Job::Map(out, slot) => {
                 self.figures.mapping_writes += 1;
@@ -321,50 +318,38 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             Job::Group(op) => self.group.finish(op, result),
         }
     }
-
-    /// A parameter request: its answer if there is one, otherwise queued and deferred.
-    fn request(&mut self, op: Op) -> Result<Outcome, DriveError> {
-        if let Some((_, result)) = self.answers.iter().find(|(o, _)| *o == op) {
-            return *result;
-        }
-        self.deferred = true;
-        let under_way =
-            self.job == Some(Job::Request(op)) || self.requests.iter().any(|o| *o == op);
-        if !under_way && self.requests.push_back(op).is_err() {
-            // More distinct requests than a parameter channel makes: refuse, do not wait.
-            self.deferred = false;
-            return Err(DriveError::DriveFault);
-        }
-        // Not seen by the caller: it repeats the call once `take_deferred` said so.
-        Err(DriveError::NoAnswer)
-    }
 }
 
-fn value(result: Result<Outcome, DriveError>) -> Result<u16, DriveError> {
-    match result? {
-        Outcome::Value(v) => Ok(v),
+/// A transaction's answer: the value read, or the value written.
+fn value(op: Op, result: Result<Outcome, DriveError>) -> Result<u16, DriveError> {
+    match (op, result?) {
+        (_, Outcome::Value(v)) => Ok(v),
+        (Op::Write(_, v), Outcome::Written) => Ok(v),
         _ => Err(DriveError::BusNoise),
     }
 }
 
 impl<U: Read<u8> + Write<u8>> Drive for LinkedDrive<U> {
-    fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
-        value(self.request(Op::Read(code.0)))
+    fn submit(&mut self, transaction: Transaction) -> Submitted {
+        // Only parameter channels submit, and their writes persist; the PZD cycle's run-time
+        // writes go through the out block.
+        let op = match transaction {
+            Transaction::Read(code) => Op::Read(code.0),
+            Transaction::Write(code, value) => Op::Write(code.0, value),
+        };
+        let ticket = Ticket(self.next_ticket);
+        if self.requests.push_back((ticket, op)).is_err() {
+            // More transactions at once than the parameter channels make: refuse, never wait.
+            return Submitted::Done(Err(DriveError::DriveFault));
+        }
+        self.next_ticket = self.next_ticket.wrapping_add(1);
+        Submitted::Pending(ticket)
     }
 
-    fn write(&mut self, code: FunctionCode, value: u16, _persist: bool) -> Result<(), DriveError> {
-        // Only parameter channels write through here, and they persist; the PZD cycle's
-        // run-time writes go through the out block.
-        self.request(Op::Write(code.0, value)).map(|_| ())
-    }
-
-    fn write_control(&mut self, control_word: u16) -> Result<(), DriveError> {
-        self.request(Op::Write(CONTROL_WORD_REGISTER, control_word))
-            .map(|_| ())
-    }
-
-    fn read_status(&mut self) -> Result<u16, DriveError> {
-        value(self.request(Op::Read(STATUS_WORD_REGISTER)))
+    fn poll(&mut self, ticket: Ticket) -> Option<Result<u16, DriveError>> {
+        let at = self.answers.iter().position(|(t, _, _)| *t == ticket)?;
+        let (_, op, result) = self.answers.remove(at);
+        Some(value(op, result))
     }
 
     fn exchange_pzd(
@@ -389,13 +374,5 @@ impl<U: Read<u8> + Write<u8>> Drive for LinkedDrive<U> {
             inp[..n].copy_from_slice(&self.inp[..n]);
         }
         self.link_error.map_or(Ok(()), Err)
-    }
-
-    fn take_deferred(&mut self) -> bool {
-        let deferred = core::mem::take(&mut self.deferred);
-        if !deferred {
-            self.answers.clear();
-        }
-        deferred
     }
 }

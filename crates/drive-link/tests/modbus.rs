@@ -4,7 +4,7 @@
 use drive_link::{BlockingDrive, Config, ModbusMaster, Op, Outcome};
 use embedded_hal_mock::eh1::serial::{Mock, Transaction};
 use hal_sim::drive_sim::{self, with_crc, DriveSim, LinkFault};
-use profidrive::drive::{Drive, DriveError};
+use profidrive::drive::{DriveError, ImmediateDrive};
 use std::collections::VecDeque;
 
 fn would_block() -> Transaction<u8> {

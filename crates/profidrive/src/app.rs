@@ -14,10 +14,9 @@
 //! The next outputs from the master end the fail-safe.
 
 use crate::codes::FunctionCode;
-use crate::drive::FaultRecord;
-use crate::drive::{Drive, DriveError, PZD1_LINK_ERROR};
+use crate::drive::{Access, Drive, DriveError, FaultRecord, ParamRequest, PZD1_LINK_ERROR};
 use crate::pd_params::{pzd_target, Frame, Parameters, FAULT_SUBINDICES};
-use crate::pkw::{PkwServer, PKW_BYTES};
+use crate::pkw::{PkwServer, Planned, PKW_BYTES};
 use crate::ppo::{Ppo, MAX_PZD_WORDS};
 use crate::prm::{ControlZeroMode, FailSafeMode, OperationMode, UserPrm};
 use crate::profile::Profile;
@@ -79,6 +78,8 @@ pub struct ProfidriveApp<D> {
     fault_at: [Option<Instant>; FAULT_SUBINDICES.len()],
     /// A drive fault seen at this time and not yet in the fault buffer.
     fault_record_due: Option<Instant>,
+    /// The read of the drive's fault record for it, under way.
+    fault_read: Option<ParamRequest>,
 }
 
 /// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
@@ -106,6 +107,7 @@ impl<D: Drive> ProfidriveApp<D> {
             params: Parameters::default(),
             fault_at: [None; FAULT_SUBINDICES.len()],
             fault_record_due: None,
+            fault_read: None,
         }
     }
 
@@ -204,11 +206,16 @@ impl<D: Drive> ProfidriveApp<D> {
             match self.prm.operation {
                 OperationMode::Vendor => self.pkw.service(&mut self.drive),
                 OperationMode::Profidrive | OperationMode::AbbDrives => {
-                    let (params, drive) = (&mut self.params, &mut self.drive);
-                    self.pkw.service_with(|bytes| {
-                        let reply = params.execute(&Frame::decode(bytes), ppo.number(), drive);
-                        (!drive.take_deferred()).then(|| reply.encode())
-                    });
+                    let params = &mut self.params;
+                    let plan =
+                        |bytes: &[u8; 8]| match params.plan(&Frame::decode(bytes), ppo.number()) {
+                            Planned::Reply(reply) => Planned::Reply(reply.encode()),
+                            Planned::Drive(access) => Planned::Drive(access),
+                        };
+                    let finish = |bytes: &[u8; 8], result| {
+                        Parameters::drive_reply(&Frame::decode(bytes), result).encode()
+                    };
+                    self.pkw.service_with(&mut self.drive, plan, finish);
                 }
             }
         }
@@ -300,10 +307,13 @@ impl<D: Drive> ProfidriveApp<D> {
     /// newest at sub-index 1 and the older ones moved on by 8 (sub-indices 9, 17, .., 41).
     /// `false`: the drive has not answered the fault record yet; try again.
     fn record_fault(&mut self, now: Instant) -> bool {
-        let record = self.drive.read(FunctionCode(0xDE00));
-        if self.drive.take_deferred() {
+        let read = self
+            .fault_read
+            .get_or_insert(ParamRequest::new(Access::Read(FunctionCode(0xDE00))));
+        let Some(record) = read.poll(&mut self.drive) else {
             return false;
-        }
+        };
+        self.fault_read = None;
         let number = match record.map(|r| FaultRecord::from_byte(r as u8)) {
             Ok(FaultRecord::Fault(n)) => u16::from(n),
             _ => 0,

@@ -4,7 +4,11 @@
 //! Error values (seed 000, PKW reply 7 and "PZD1 返回值高字节为 0XC0"): 0x01 illegal
 //! operation, 0x02 illegal address, 0x03 invalid data, 0x04 slave (drive) fault, 0x08 memory
 //! fault, 0x11 access restricted, 0x21 bus noise, 0x22 no answer, 0x23 CRC error. The last
-//! three are faults of the drive link itself (issue 6 puts a Modbus link under this trait).
+//! three are faults of the drive link itself.
+//!
+//! Parameter access is asynchronous: a channel submits a [`ParamRequest`] and polls it on
+//! later services until the drive answered; a drive behind a link answers later, a drive that
+//! answers at once ([`ImmediateDrive`]) completes it on the first poll. Nothing is replayed.
 
 use crate::codes::FunctionCode;
 
@@ -41,25 +45,70 @@ impl DriveError {
 /// The high byte of PZD1 (status word) while the drive cannot be reached.
 pub const PZD1_LINK_ERROR: u16 = 0xC000;
 
-/// What the adapter needs of a drive. Registers are addressed by function code; the control
-/// and status words have their own calls (the drive link knows where they live).
+/// A drive that answers at once (the drive simulator, a test's mock, a blocking link): each
+/// call returns its result. The application does not call these: [`Drive`] is implemented for
+/// every immediate drive, each submitted request completing at once.
 ///
-/// A drive behind a slow link may answer later: it then says so through
-/// [`Drive::take_deferred`], and the caller repeats the same calls on a later service until
-/// they are answered. [`Drive::exchange_pzd`] never waits; a linked drive serves it from the
-/// values of its own cycle.
-pub trait Drive {
+/// Registers are addressed by function code; the control and status words have their own
+/// calls (the drive link knows where they live).
+pub trait ImmediateDrive {
     fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError>;
     /// Writes an application parameter. `persist`: the value goes to non-volatile memory
-    /// (a PKW write); PZD writes are run-time values and do not wear the memory.
+    /// (a parameter channel's write); PZD writes are run-time values and do not wear it.
     fn write(&mut self, code: FunctionCode, value: u16, persist: bool) -> Result<(), DriveError>;
     fn write_control(&mut self, control_word: u16) -> Result<(), DriveError>;
     fn read_status(&mut self) -> Result<u16, DriveError>;
+}
 
+/// One drive transaction of a parameter request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Transaction {
+    Read(FunctionCode),
+    /// A write to non-volatile memory.
+    Write(FunctionCode, u16),
+}
+
+/// A transaction a drive took and will answer later.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Ticket(pub u16);
+
+/// What submitting a transaction gave.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Submitted {
+    /// Answered at once: the value read, or the value written.
+    Done(Result<u16, DriveError>),
+    /// Taken: [`Drive::poll`] gives the answer once the drive gave it.
+    Pending(Ticket),
+}
+
+/// What the adapter needs of a drive. Nothing here waits: parameter requests are submitted and
+/// completed later ([`ParamRequest`]); the process data is exchanged with what the drive's own
+/// cycle has.
+pub trait Drive {
     /// One process-data cycle. `out[0]` is the control word and `out[i]` goes to
     /// `targets[i - 1]`; `inp[0]` gets the status word and `inp[i]` the value of
     /// `sources[i - 1]` (0 for none). On an error the words that could not be read keep their
-    /// value, and the first error is returned. The default does it register by register.
+    /// value, and the first error is returned.
+    fn exchange_pzd(
+        &mut self,
+        out: &[u16],
+        targets: &[Option<FunctionCode>],
+        inp: &mut [u16],
+        sources: &[Option<FunctionCode>],
+    ) -> Result<(), DriveError>;
+
+    /// Submits one transaction; never waits.
+    fn submit(&mut self, transaction: Transaction) -> Submitted;
+
+    /// The answer to a pending transaction, once (`None` while the drive has not answered).
+    fn poll(&mut self, ticket: Ticket) -> Option<Result<u16, DriveError>>;
+}
+
+impl<T: ImmediateDrive> Drive for T {
+    /// Register by register.
     fn exchange_pzd(
         &mut self,
         out: &[u16],
@@ -97,25 +146,99 @@ pub trait Drive {
         first_error.map_or(Ok(()), Err)
     }
 
-    /// Whether the reads and writes since the last call were only queued: their results are
-    /// not known yet, and the caller must make the same calls again later (the drive keeps
-    /// the answers until the calls are repeated). A drive that answers at once never defers.
-    fn take_deferred(&mut self) -> bool {
-        false
+    fn submit(&mut self, transaction: Transaction) -> Submitted {
+        Submitted::Done(match transaction {
+            Transaction::Read(code) => self.read(code),
+            Transaction::Write(code, value) => self.write(code, value, true).map(|()| value),
+        })
+    }
+
+    fn poll(&mut self, _: Ticket) -> Option<Result<u16, DriveError>> {
+        None
     }
 }
 
-/// A parameter write from a parameter channel (either profile): to non-volatile memory, and
-/// not at all when the drive already holds the value (its memory wears; both manuals warn).
-pub fn write_if_changed(
-    drive: &mut impl Drive,
-    code: FunctionCode,
-    value: u16,
-) -> Result<(), DriveError> {
-    if drive.read(code).is_ok_and(|v| v == value) {
-        return Ok(());
+/// What a parameter channel's request asks of the drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Access {
+    Read(FunctionCode),
+    /// To non-volatile memory, and not at all when the drive already holds the value (its
+    /// memory wears; both manuals warn).
+    Write(FunctionCode, u16),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum Step {
+    Start,
+    Reading(Ticket),
+    Writing(Ticket),
+    Done(Result<u16, DriveError>),
+}
+
+/// One parameter request to the drive, submitted and completed later: a read; or a write as
+/// read, compare, write when different. Both parameter channels (and the fault record) hold
+/// one per request; it never waits, and a write reaches the drive at most once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ParamRequest {
+    access: Access,
+    step: Step,
+}
+
+impl ParamRequest {
+    pub const fn new(access: Access) -> ParamRequest {
+        ParamRequest {
+            access,
+            step: Step::Start,
+        }
     }
-    drive.write(code, value, true)
+
+    pub fn access(&self) -> Access {
+        self.access
+    }
+
+    /// Moves the request on as far as the drive's answers allow; its result once done (the
+    /// value read, or the value the drive holds after the write), and on every later call.
+    pub fn poll(&mut self, drive: &mut impl Drive) -> Option<Result<u16, DriveError>> {
+        loop {
+            self.step = match self.step {
+                Step::Done(result) => return Some(result),
+                Step::Start => {
+                    let code = match self.access {
+                        Access::Read(code) | Access::Write(code, _) => code,
+                    };
+                    self.after_read(drive.submit(Transaction::Read(code)), drive)
+                }
+                Step::Reading(ticket) => match drive.poll(ticket) {
+                    None => return None,
+                    Some(result) => self.after_read(Submitted::Done(result), drive),
+                },
+                Step::Writing(ticket) => match drive.poll(ticket) {
+                    None => return None,
+                    Some(result) => Step::Done(result),
+                },
+            };
+        }
+    }
+
+    fn after_read(&self, read: Submitted, drive: &mut impl Drive) -> Step {
+        match (read, self.access) {
+            (Submitted::Pending(ticket), _) => Step::Reading(ticket),
+            (Submitted::Done(result), Access::Read(_)) => Step::Done(result),
+            (Submitted::Done(Ok(held)), Access::Write(_, value)) if held == value => {
+                Step::Done(Ok(value))
+            }
+            // Different, or unreadable: write (the drive refuses what it must).
+            (Submitted::Done(_), Access::Write(code, value)) => {
+                match drive.submit(Transaction::Write(code, value)) {
+                    Submitted::Pending(ticket) => Step::Writing(ticket),
+                    Submitted::Done(result) => Step::Done(result),
+                }
+            }
+        }
+    }
 }
 
 /// A fault record entry (seed 000, DE.xx): bit 7 fault, bit 6 warning, bits 5-0 the number

@@ -15,7 +15,8 @@
 //! - Data sets (PNU 0, IND 1-99) belong to ABB drives; this drive has none: error 0.
 
 use crate::codes::FunctionCode;
-use crate::drive::{write_if_changed, Drive, DriveError};
+use crate::drive::{Access, DriveError};
+use crate::pkw::Planned;
 use crate::pkw::PKW_BYTES;
 use crate::ppo::MAX_PZD_WORDS;
 
@@ -337,18 +338,29 @@ impl Parameters {
         }
     }
 
-    /// Executes one request. `ppo_number` answers 929; `drive` serves drive parameters.
-    pub fn execute(&mut self, request: &Frame, ppo_number: u8, drive: &mut impl Drive) -> Frame {
+    /// What one request needs: the adapter's own parameters are executed here and answered
+    /// at once; a drive parameter is a drive access, answered by [`Parameters::drive_reply`]
+    /// once the drive answered (and planned again, without effect, until then).
+    /// `ppo_number` answers 929.
+    pub fn plan(&mut self, request: &Frame, ppo_number: u8) -> Planned<Frame> {
+        match self.execute_local(request, ppo_number) {
+            Ok(reply) => Planned::Reply(reply),
+            Err(access) => Planned::Drive(access),
+        }
+    }
+
+    /// The request executed on the adapter's parameters, or the drive access it needs.
+    fn execute_local(&mut self, request: &Frame, ppo_number: u8) -> Result<Frame, Access> {
         use self::request as rq;
         let err = |e: u16| request.reply(response::ERROR, u32::from(e));
         let label = request.label;
         if label == rq::NONE {
-            return Frame {
+            return Ok(Frame {
                 label: response::NONE,
                 pnu: 0,
                 index: 0,
                 value: 0,
-            };
+            });
         }
         let writes = matches!(
             label,
@@ -359,18 +371,26 @@ impl Parameters {
                 | rq::WRITE_ARRAY_DWORD
         );
         if writes && self.pkw_rights == 0 && request.pnu != 927 {
-            return request.reply(response::NO_PKW_RIGHTS, 0);
+            return Ok(request.reply(response::NO_PKW_RIGHTS, 0));
         }
         if request.pnu < 900 {
-            return self.drive_request(request, drive);
+            return drive_access(request);
         }
         if request.pnu == 929 {
-            return match label {
+            return Ok(match label {
                 rq::READ => request.reply(response::WORD, u32::from(ppo_number)),
                 rq::WRITE_WORD | rq::WRITE_DWORD => err(error::READ_ONLY),
                 _ => err(error::NOT_AN_ARRAY),
-            };
+            });
         }
+        Ok(self.own_parameter(request))
+    }
+
+    /// A request for one of the adapter's own parameters (900 and up).
+    fn own_parameter(&mut self, request: &Frame) -> Frame {
+        use self::request as rq;
+        let err = |e: u16| request.reply(response::ERROR, u32::from(e));
+        let label = request.label;
         // The value checks look at other parameters, so they run before the slot is borrowed.
         let value_check = self.check_write(request.pnu, request.index, request.value as u16);
         let Some(slot) = self.slot(request.pnu) else {
@@ -454,40 +474,47 @@ impl Parameters {
         }
     }
 
-    /// Drive parameters: PNU and IND are the high and low byte of xxyy; data sets have none.
-    fn drive_request(&mut self, request: &Frame, drive: &mut impl Drive) -> Frame {
-        use self::request as rq;
-        let err = |e: u16| request.reply(response::ERROR, u32::from(e));
-        let number = (request.pnu << 8) | u16::from(request.index);
-        let Some(code) = drive_parameter(number) else {
-            return err(error::ILLEGAL_PNU);
-        };
-        let link = |e: DriveError| match e {
-            DriveError::NoAnswer => error::TIMEOUT,
-            DriveError::BusNoise | DriveError::CrcError => error::COMMUNICATION_ERROR,
-            DriveError::MemoryFault => error::FLASH_WRITE_FAILED,
-            DriveError::InvalidData => error::OUT_OF_RANGE,
-            DriveError::IllegalAddress => error::ILLEGAL_PNU,
-            DriveError::AccessRestricted => error::READ_ONLY,
-            DriveError::IllegalOperation | DriveError::DriveFault => error::OPERATING_STATE,
-        };
-        match request.label {
-            rq::READ_ARRAY | rq::READ => match drive.read(code) {
-                Ok(v) => request.reply(response::ARRAY_WORD, u32::from(v)),
-                Err(e) => err(link(e)),
-            },
-            rq::WRITE_ARRAY_WORD | rq::WRITE_WORD => {
-                if !code.is_writable() {
-                    return err(error::READ_ONLY);
-                }
-                let new = request.value as u16;
-                match write_if_changed(drive, code, new) {
-                    Ok(()) => request.reply(response::ARRAY_WORD, u32::from(new)),
-                    Err(e) => err(link(e)),
-                }
-            }
-            _ => err(error::UNSUPPORTED_REQUEST),
+    /// The answer to a drive parameter request (planned by [`Parameters::plan`]) once the
+    /// drive answered.
+    pub fn drive_reply(request: &Frame, result: Result<u16, DriveError>) -> Frame {
+        match result {
+            Ok(v) => request.reply(response::ARRAY_WORD, u32::from(v)),
+            Err(e) => request.reply(response::ERROR, u32::from(link_error(e))),
         }
+    }
+}
+
+/// The PROFIdrive error number for what the drive or its link reported.
+fn link_error(e: DriveError) -> u16 {
+    match e {
+        DriveError::NoAnswer => error::TIMEOUT,
+        DriveError::BusNoise | DriveError::CrcError => error::COMMUNICATION_ERROR,
+        DriveError::MemoryFault => error::FLASH_WRITE_FAILED,
+        DriveError::InvalidData => error::OUT_OF_RANGE,
+        DriveError::IllegalAddress => error::ILLEGAL_PNU,
+        DriveError::AccessRestricted => error::READ_ONLY,
+        DriveError::IllegalOperation | DriveError::DriveFault => error::OPERATING_STATE,
+    }
+}
+
+/// Drive parameters: PNU and IND are the high and low byte of xxyy; data sets have none. The
+/// access a request needs, or its refusal.
+fn drive_access(request: &Frame) -> Result<Frame, Access> {
+    use self::request as rq;
+    let err = |e: u16| Ok(request.reply(response::ERROR, u32::from(e)));
+    let number = (request.pnu << 8) | u16::from(request.index);
+    let Some(code) = drive_parameter(number) else {
+        return err(error::ILLEGAL_PNU);
+    };
+    match request.label {
+        rq::READ_ARRAY | rq::READ => Err(Access::Read(code)),
+        rq::WRITE_ARRAY_WORD | rq::WRITE_WORD => {
+            if !code.is_writable() {
+                return err(error::READ_ONLY);
+            }
+            Err(Access::Write(code, request.value as u16))
+        }
+        _ => err(error::UNSUPPORTED_REQUEST),
     }
 }
 
@@ -496,6 +523,7 @@ mod tests {
     use super::*;
     use crate::testing::MockDrive;
 
+    /// One request, to a drive that answers at once.
     fn run(
         p: &mut Parameters,
         drive: &mut MockDrive,
@@ -504,16 +532,21 @@ mod tests {
         index: u8,
         value: u32,
     ) -> Frame {
-        p.execute(
-            &Frame {
-                label,
-                pnu,
-                index,
-                value,
-            },
-            1,
-            drive,
-        )
+        let request = Frame {
+            label,
+            pnu,
+            index,
+            value,
+        };
+        match p.plan(&request, 1) {
+            Planned::Reply(reply) => reply,
+            Planned::Drive(access) => {
+                let result = crate::drive::ParamRequest::new(access)
+                    .poll(drive)
+                    .expect("an immediate drive answers at once");
+                Parameters::drive_reply(&request, result)
+            }
+        }
     }
 
     #[test]

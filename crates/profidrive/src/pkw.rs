@@ -9,12 +9,14 @@
 //! way, agree byte for byte (tests below); its typesetting scatters the D1.00 example over two
 //! lines, read here as `10 D1 00 00 00 00 00 00`.
 //!
-//! [`PkwServer`] (for both profiles) executes a request once: the same request repeated keeps its answer, and only
-//! a changed request starts a new one. A write of the value the drive already holds does not
-//! write (the drive's non-volatile memory wears).
+//! [`PkwServer`] (for both profiles) executes a request once: the same request repeated keeps
+//! its answer, and only a changed request starts a new one. A request that needs the drive is
+//! a [`ParamRequest`], submitted and polled on later services until the drive answered; a
+//! write of the value the drive already holds does not write (the drive's non-volatile memory
+//! wears).
 
 use crate::codes::{CodeKind, FunctionCode};
-use crate::drive::{write_if_changed, Drive, DriveError};
+use crate::drive::{Access, Drive, DriveError, ParamRequest};
 
 pub const PKW_BYTES: usize = 8;
 
@@ -98,30 +100,42 @@ impl Reply {
     }
 }
 
-/// Executes one request against the drive.
-pub fn execute(drive: &mut impl Drive, request: &Request) -> Reply {
+/// What a request of either parameter channel needs: its reply now, or the drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Planned<R> {
+    Reply(R),
+    Drive(Access),
+}
+
+/// What a vendor request needs: refused or empty at once, or a drive access.
+pub fn plan(request: &Request) -> Planned<Reply> {
     let code = request.code;
-    let refused = |error| Reply::Refused { code, error };
+    let refused = |error| Planned::Reply(Reply::Refused { code, error });
     match request.task {
-        Task::None => Reply::None,
+        Task::None => Planned::Reply(Reply::None),
         Task::Unknown(_) => refused(DriveError::IllegalOperation),
         Task::Read => match code.kind() {
             None => refused(DriveError::IllegalAddress),
-            Some(_) => match drive.read(code) {
-                Ok(value) => Reply::Value { code, value },
-                Err(e) => refused(e),
-            },
+            Some(_) => Planned::Drive(Access::Read(code)),
         },
         Task::Write => match code.kind() {
             None => refused(DriveError::IllegalAddress),
             Some(CodeKind::Status | CodeKind::FaultRecord) => refused(DriveError::AccessRestricted),
-            Some(CodeKind::Application) => match write_if_changed(drive, code, request.value) {
-                Ok(()) => Reply::Value {
-                    code,
-                    value: request.value,
-                },
-                Err(e) => refused(e),
-            },
+            Some(CodeKind::Application) => Planned::Drive(Access::Write(code, request.value)),
+        },
+    }
+}
+
+/// The reply to a vendor request once the drive answered.
+pub fn reply(request: &Request, result: Result<u16, DriveError>) -> Reply {
+    match result {
+        Ok(value) => Reply::Value {
+            code: request.code,
+            value,
+        },
+        Err(error) => Reply::Refused {
+            code: request.code,
+            error,
         },
     }
 }
@@ -131,8 +145,10 @@ pub fn execute(drive: &mut impl Drive, request: &Request) -> Reply {
 pub struct PkwServer {
     /// The request the current reply answers.
     answered: Option<[u8; PKW_BYTES]>,
-    /// A request received and not yet executed.
+    /// A request received and not yet answered.
     pending: Option<[u8; PKW_BYTES]>,
+    /// The drive access of the pending request, under way.
+    in_flight: Option<([u8; PKW_BYTES], ParamRequest)>,
     reply: [u8; PKW_BYTES],
 }
 
@@ -144,28 +160,56 @@ impl PkwServer {
         }
     }
 
-    /// Executes a pending request of the vendor profile, if any.
+    /// Moves a pending request of the vendor profile on, if any.
     pub fn service(&mut self, drive: &mut impl Drive) {
-        self.service_with(|bytes| {
-            let reply = execute(drive, &Request::decode(bytes)).encode();
-            (!drive.take_deferred()).then_some(reply)
-        });
+        self.service_with(
+            drive,
+            |bytes| match plan(&Request::decode(bytes)) {
+                Planned::Reply(r) => Planned::Reply(r.encode()),
+                Planned::Drive(access) => Planned::Drive(access),
+            },
+            |bytes, result| reply(&Request::decode(bytes), result).encode(),
+        );
     }
 
-    /// Executes a pending request, if any, with the profile's `execute`. `execute` returns
-    /// `None` while the drive has not answered yet: the request stays pending, the master
-    /// keeps seeing the previous reply, and the next service tries again.
-    pub fn service_with(
+    /// Moves a pending request on with the profile's `plan` (its reply now, or a drive access;
+    /// called on every service while the access is under way, so it must not act) and
+    /// `finish` (the reply once the drive answered). Until then the master keeps seeing the
+    /// previous reply.
+    pub fn service_with<D: Drive>(
         &mut self,
-        execute: impl FnOnce(&[u8; PKW_BYTES]) -> Option<[u8; PKW_BYTES]>,
+        drive: &mut D,
+        mut plan: impl FnMut(&[u8; PKW_BYTES]) -> Planned<[u8; PKW_BYTES]>,
+        finish: impl FnOnce(&[u8; PKW_BYTES], Result<u16, DriveError>) -> [u8; PKW_BYTES],
     ) {
-        if let Some(bytes) = self.pending {
-            if let Some(reply) = execute(&bytes) {
-                self.reply = reply;
-                self.answered = Some(bytes);
-                self.pending = None;
+        let Some(bytes) = self.pending else {
+            return;
+        };
+        let reply = match plan(&bytes) {
+            Planned::Reply(reply) => reply,
+            Planned::Drive(access) => {
+                let current = self
+                    .in_flight
+                    .as_ref()
+                    .is_some_and(|(b, r)| *b == bytes && r.access() == access);
+                if !current {
+                    // A new request: one that was under way is abandoned (the drive link
+                    // finishes its transaction and forgets the answer).
+                    self.in_flight = Some((bytes, ParamRequest::new(access)));
+                }
+                let Some((_, request)) = self.in_flight.as_mut() else {
+                    return;
+                };
+                let Some(result) = request.poll(drive) else {
+                    return;
+                };
+                self.in_flight = None;
+                finish(&bytes, result)
             }
-        }
+        };
+        self.reply = reply;
+        self.answered = Some(bytes);
+        self.pending = None;
     }
 
     /// The reply to put into the inputs.
@@ -184,8 +228,12 @@ mod tests {
     use super::*;
     use crate::testing::MockDrive;
 
+    /// One request through the server, to a drive that answers at once.
     fn run(drive: &mut MockDrive, request: [u8; 8]) -> [u8; 8] {
-        execute(drive, &Request::decode(&request)).encode()
+        let mut server = PkwServer::default();
+        server.received(request);
+        server.service(drive);
+        server.reply()
     }
 
     #[test]

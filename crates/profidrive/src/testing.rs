@@ -3,7 +3,7 @@
 //! and the seed's parameter groups, belongs to hal-sim (issue 6).
 
 use crate::codes::FunctionCode;
-use crate::drive::{Drive, DriveError, FaultRecord};
+use crate::drive::{DriveError, FaultRecord, ImmediateDrive};
 use crate::words::{control, rose, status};
 
 /// Output frequency (D0.00): the set frequency (F0.29) while running.
@@ -57,7 +57,7 @@ impl MockDrive {
     }
 }
 
-impl Drive for MockDrive {
+impl ImmediateDrive for MockDrive {
     fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
         self.check()?;
         Ok(match code.0 {

@@ -35,12 +35,13 @@ pub struct Breakdown {
     /// Data_Exchange requests and responses on the line.
     pub request_bits: u64,
     pub response_bits: u64,
-    /// From each request's end to its response's start.
+    /// From each request's end to its response's start: the adapters' part.
     pub tsdr_bits: u64,
-    /// Tokens, Global_Control, the master's GAP polls and any other telegram.
-    pub other_telegram_bits: u64,
-    /// The line idle between telegrams (TSYN and the master's own gaps).
-    pub idle_bits: u64,
+    /// The idle line before each request, up to TSYN (33 bit times): the line's own rule.
+    pub tsyn_bits: u64,
+    /// The master's: its token, GAP polls (and the slot time each waits for a station that is
+    /// not there), Global_Control, and its idle time beyond TSYN.
+    pub master_bits: u64,
 }
 
 /// One run's result.
@@ -52,8 +53,9 @@ pub struct CycleRun {
     /// The master's median cycle, and the floor, in µs.
     pub cycle_us: f64,
     pub floor_us: f64,
-    /// Per measured cycle, on average.
+    /// Per measured cycle, on average (their sum is the mean cycle, `mean_cycle_bits`).
     pub breakdown: Breakdown,
+    pub mean_cycle_bits: u64,
     pub cycles_measured: usize,
     /// The adapters' longest TSDR, in bit times.
     pub worst_tsdr_bits: u64,
@@ -142,6 +144,9 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
     let mut fdl = FdlActiveStation::new(
         ParametersBuilder::new(MASTER_ADDRESS, crate::cosim::profirust_baud(baud))
             .highest_station_address(MASTER_ADDRESS + 1)
+            // One master on the line: its GAP scan (a slot time waiting for a station that is
+            // not there) every hundredth token rotation, not every tenth (profirust's default).
+            .gap_wait_rotations(100)
             .watchdog_timeout(profirust::time::Duration::from_millis(200))
             .build_verified(&dp),
     );
@@ -236,10 +241,11 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
                 }
                 let bytes = t.bytes().to_vec();
                 let end = t.end;
-                // The master's telegrams as adapter 0 hears them (a slave's transceiver takes
-                // only telegrams after TSYN: the answers are collected at the master).
-                if i == 0 {
-                    let start = end.saturating_sub(11 * bytes.len() as u64 * cpb);
+                // The master's telegrams as adapters 0 and 1 hear them (a slave's transceiver
+                // takes only telegrams after TSYN, so the answers are collected at the master;
+                // and it does not hear the line while it answers itself).
+                let start = end.saturating_sub(11 * bytes.len() as u64 * cpb);
+                if i < 2 && !heard.iter().rev().take(4).any(|h| h.1.abs_diff(end) < cpb) {
                     heard.push((start, end, classify(&bytes)));
                 }
                 let baud_index = baud.index() as u8;
@@ -283,34 +289,33 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
     let mut b = Breakdown::default();
     let mut last_end = from;
     let mut last_request_end = None;
-    for (start, end, kind) in heard.iter().filter(|(s, e, _)| *s >= from && *e <= to) {
-        b.idle_bits += bits(start.saturating_sub(last_end));
+    for (start, end, kind) in heard.iter().filter(|(s, _, _)| *s >= from && *s < to) {
+        let idle = bits(start.saturating_sub(last_end));
         let len = bits(end - start);
         match kind {
             Kind::Request => {
+                let tsyn = idle.min(u64::from(dp_consts::TSYN_BITS));
+                b.tsyn_bits += tsyn;
+                b.master_bits += idle - tsyn;
                 b.request_bits += len;
                 last_request_end = Some(*end);
             }
-            Kind::Response => {
+            Kind::Response if last_request_end.take().is_some() => {
+                b.tsdr_bits += idle;
                 b.response_bits += len;
-                if let Some(r) = last_request_end.take() {
-                    let gap = bits(start.saturating_sub(r));
-                    b.tsdr_bits += gap;
-                    b.idle_bits -= gap.min(b.idle_bits);
-                }
             }
-            Kind::Other => b.other_telegram_bits += len,
+            Kind::Response | Kind::Other => b.master_bits += idle + len,
         }
         last_end = *end;
     }
-    b.idle_bits += bits(to.saturating_sub(last_end));
+    b.master_bits += bits(to.saturating_sub(last_end));
     let n = cycles as u64;
     let per_cycle = Breakdown {
         request_bits: b.request_bits / n,
         response_bits: b.response_bits / n,
         tsdr_bits: b.tsdr_bits / n,
-        other_telegram_bits: b.other_telegram_bits / n,
-        idle_bits: b.idle_bits / n,
+        tsyn_bits: b.tsyn_bits / n,
+        master_bits: b.master_bits / n,
     };
     let bit_us = 1e6 / f64::from(baud.bits_per_second());
     Ok(CycleRun {
@@ -320,6 +325,7 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
         cycle_us: ns(median_ticks) as f64 / 1000.0,
         floor_us: floor_bits(ppo, slaves) as f64 * bit_us,
         breakdown: per_cycle,
+        mean_cycle_bits: bits(to - from) / n,
         cycles_measured: cycles,
         worst_tsdr_bits: worst_tsdr,
     })

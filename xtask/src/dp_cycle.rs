@@ -37,34 +37,36 @@ pub fn run(args: &[String]) -> Result<()> {
         }
     }
     for baud in RATES {
-        println!("breakdown at {baud} (bit times per cycle, mean of {cycles} cycles):");
+        println!("breakdown at {baud} (bit times, the mean of {cycles} cycles):");
         println!(
-            "  {:<5} {:>8} {:>8} {:>9} {:>6} {:>7} {:>10} {:>6} {:>11}",
+            "  {:<5} {:>7} {:>7} {:>9} {:>10} {:>5} {:>5} {:>7} {:>7} {:>8}",
             "ppo",
             "cycle",
             "floor",
             "requests",
+            "responses",
+            "tsyn",
             "tsdr",
             "tsdr %",
-            "responses",
-            "idle",
-            "token+other"
+            "master",
+            "without"
         );
         for r in runs.iter().filter(|r| r.baud == baud) {
             let b = r.breakdown;
-            let cycle_bits = r.cycle_us * f64::from(baud.bits_per_second()) / 1e6;
+            let cycle_bits = r.mean_cycle_bits as f64;
             let floor = dp_cycle::floor_bits(r.ppo, r.slaves);
             println!(
-                "  PPO{:<2} {:>8.0} {:>8} {:>9} {:>6} {:>6.1}% {:>10} {:>6} {:>11}",
+                "  PPO{:<2} {:>7.0} {:>7} {:>9} {:>10} {:>5} {:>5} {:>6.1}% {:>7} {:>8.3}",
                 r.ppo.number(),
                 cycle_bits,
                 floor,
                 b.request_bits,
+                b.response_bits,
+                b.tsyn_bits,
                 b.tsdr_bits,
                 100.0 * b.tsdr_bits as f64 / cycle_bits,
-                b.response_bits,
-                b.idle_bits,
-                b.other_telegram_bits
+                b.master_bits,
+                (cycle_bits - b.master_bits as f64) / floor as f64,
             );
         }
         let worst = runs
@@ -74,9 +76,10 @@ pub fn run(args: &[String]) -> Result<()> {
             .max()
             .unwrap_or(0);
         println!(
-            "  the adapters' TSDR: at most {worst} bit times each (min TSDR 11); idle: TSYN (33 \
-             bit times before every request) and the master's own gaps; token+other: the \
-             master's token to itself, its GAP polls and Global_Control"
+            "  tsdr: the adapters' part, at most {worst} bit times an answer (min TSDR 11); tsyn: \
+             the 33 idle bit times before each request; master: profirust's token, its GAP poll \
+             and the slot time it waits there, Global_Control, its idle beyond TSYN; without: \
+             the ratio without the master's part"
         );
     }
     Ok(())

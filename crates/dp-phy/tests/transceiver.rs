@@ -429,9 +429,6 @@ fn strict_equals_fast(seed: u64, baud: Baud, ppm: i32, noisy: bool) {
 #[test]
 fn fast_mode_gives_the_strict_outputs_on_random_streams() {
     for (i, baud) in Baud::ALL.into_iter().enumerate() {
-        if baud <= Baud::B45450 {
-            continue; // the slow rates take long strictly; proptest below samples them
-        }
         strict_equals_fast(i as u64, baud, 1000, false);
         strict_equals_fast(100 + i as u64, baud, -4000, true);
     }
@@ -482,7 +479,65 @@ proptest! {
     }
 
     #[test]
-    fn fast_equals_strict(seed in any::<u64>(), rate in 3usize..10, ppm in -5000i32..=5000, noisy in any::<bool>()) {
+    fn fast_equals_strict(seed in any::<u64>(), rate in 0usize..10, ppm in -5000i32..=5000, noisy in any::<bool>()) {
         strict_equals_fast(seed, Baud::ALL[rate], ppm, noisy);
     }
 }
+
+/// A writer into a buffer the test keeps (the testbench takes its writer for good).
+#[derive(Clone, Default)]
+struct Shared(std::sync::Arc<std::sync::Mutex<Vec<u8>>>);
+
+impl std::io::Write for Shared {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.lock().unwrap().extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// The SHA-256 of the waveform of `replay` on a bench at `baud`, in hex.
+fn waveform_digest(baud: Baud, replay: impl FnOnce(&mut Testbench)) -> String {
+    use sha2::{Digest, Sha256};
+    let out = Shared::default();
+    let mut tb = bench(baud, 0);
+    tb.trace_to(Box::new(out.clone())).unwrap();
+    replay(&mut tb);
+    tb.finish_trace().unwrap();
+    let bytes = out.0.lock().unwrap().clone();
+    Sha256::digest(&bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// The waveform of an autobaud lock and of a 12 Mbit/s exchange, pinned: a change to the
+/// model that moves any signal by a clock shows here. If it is meant, update the digest and
+/// say why in the commit.
+#[test]
+fn pinned_waveforms() {
+    let lock = waveform_digest(Baud::B187500, |tb| {
+        // FDL_Status from PROTOCOL.md: the first character locks the rate.
+        tb.send(40, &[0x10, 0x08, 0x02, 0x49, 0x53, 0x16]);
+        tb.run_out(40, false);
+    });
+    let exchange = waveform_digest(Baud::B12000000, |tb| {
+        tb.send(40, &[0x10, 0x08, 0x02, 0x49, 0x53, 0x16]);
+        // PROTOCOL.md's 8-byte Data_Exchange as SD3.
+        tb.send(
+            40,
+            &[
+                0xA2, 0x08, 0x02, 0x4D, 0x00, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07, 0x73, 0x16,
+            ],
+        );
+        tb.run_out(40, false);
+    });
+    assert_eq!(lock, PINNED_LOCK, "autobaud lock at 187.5k");
+    assert_eq!(exchange, PINNED_12M, "exchange at 12M");
+}
+
+const PINNED_LOCK: &str = "a1b976ae1d9b39d3e6977baa1438b1ed7d52b7204d0df033fb04a3661151f6e7";
+const PINNED_12M: &str = "27f68472944babc99fdaedcf8727bba2ae0df91d8f7f941a9d893cc47be325d7";

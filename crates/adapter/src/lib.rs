@@ -91,6 +91,7 @@ pub trait CountsSent {
     fn bytes_sent(&self) -> u32;
 }
 
+#[cfg(any(test, feature = "testing"))]
 impl Background for dp_slave::testing::EchoApp {}
 
 impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {

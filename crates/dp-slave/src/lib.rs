@@ -13,6 +13,7 @@ pub mod cfg;
 #[cfg(feature = "harness")]
 pub mod harness;
 mod slave;
+#[cfg(any(test, feature = "testing"))]
 pub mod testing;
 
 pub use app::{Application, FailSafeReason};

@@ -12,20 +12,24 @@
 //! waiting. It runs its own PZD cycle (one 17h read/write transaction per cycle, back to
 //! back), so a Data_Exchange only copies process images; parameter requests are queued
 //! between cycles and answered on a later service (`Drive::take_deferred`).
-//! [`BlockingDrive`] is the same trait for host tests that may wait for each answer.
+//! `BlockingDrive` (feature `testing`) is an immediate drive over the same master, for host
+//! tests that may wait for each answer; the product never waits.
 
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
 
+#[cfg(any(test, feature = "testing"))]
+mod blocking;
 pub mod fieldbus;
 mod linked;
+#[cfg(any(test, feature = "testing"))]
+pub use blocking::BlockingDrive;
 pub use fieldbus::FieldbusGroup;
 pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US, LED_ACTIVITY_US, REWRITE_US};
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind as UartError, Read, Write};
 use heapless09::Vec;
-use profidrive::codes::FunctionCode;
-use profidrive::drive::{DriveError, ImmediateDrive};
+use profidrive::drive::DriveError;
 use rmodbus::client::ModbusRequest;
 use rmodbus::{ErrorKind, ModbusProto};
 
@@ -391,58 +395,4 @@ fn exchange_answer(rx: &[u8], words: usize) -> Result<[u16; MAX_PZD_WORDS], Driv
         *value = u16::from_be_bytes([bytes[0], bytes[1]]);
     }
     Ok(values)
-}
-
-/// `profidrive::Drive` over the master, waiting for each answer with `now` as the clock.
-pub struct BlockingDrive<U, C> {
-    pub master: ModbusMaster<U>,
-    now_us: C,
-}
-
-impl<U: Read<u8> + Write<u8>, C: FnMut() -> u64> BlockingDrive<U, C> {
-    pub fn new(master: ModbusMaster<U>, now_us: C) -> BlockingDrive<U, C> {
-        BlockingDrive { master, now_us }
-    }
-
-    fn run(&mut self, op: Op) -> Result<Outcome, DriveError> {
-        if self.master.start(op).is_err() {
-            return Err(DriveError::DriveFault);
-        }
-        loop {
-            let now = (self.now_us)();
-            if let Some(outcome) = self.master.poll(now) {
-                return match outcome {
-                    Outcome::Failed(e) => Err(e),
-                    other => Ok(other),
-                };
-            }
-        }
-    }
-}
-
-impl<U: Read<u8> + Write<u8>, C: FnMut() -> u64> ImmediateDrive for BlockingDrive<U, C> {
-    fn read(&mut self, code: FunctionCode) -> Result<u16, DriveError> {
-        match self.run(Op::Read(code.0))? {
-            Outcome::Value(v) => Ok(v),
-            _ => Err(DriveError::BusNoise),
-        }
-    }
-
-    fn write(&mut self, code: FunctionCode, value: u16, _persist: bool) -> Result<(), DriveError> {
-        // Modbus has one write; the drive decides what is non-volatile (its parameters are,
-        // its control word is not). The adapter avoids rewriting unchanged values itself.
-        self.run(Op::Write(code.0, value)).map(|_| ())
-    }
-
-    fn write_control(&mut self, control_word: u16) -> Result<(), DriveError> {
-        self.run(Op::Write(CONTROL_WORD_REGISTER, control_word))
-            .map(|_| ())
-    }
-
-    fn read_status(&mut self) -> Result<u16, DriveError> {
-        match self.run(Op::Read(STATUS_WORD_REGISTER))? {
-            Outcome::Value(v) => Ok(v),
-            _ => Err(DriveError::BusNoise),
-        }
-    }
 }

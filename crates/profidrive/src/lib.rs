@@ -26,6 +26,7 @@ pub mod pkw;
 pub mod ppo;
 pub mod prm;
 pub mod profile;
+#[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod words;
 

@@ -19,14 +19,14 @@
 //! Every figure comes from [`board::PRODUCTION`]. Time is in nanoseconds of the bus clock;
 //! events carry the transceiver's time in microseconds.
 
-use crate::drive_sim::DriveSim;
-use crate::drive_wire::DriveWire;
 use crate::firmware::{Firmware, Handled, Write};
 use board::Board;
 use dp_link::sim::SimToAdapter;
 use dp_link::{Leds, NvRecord, SlaveState, Status, ToAdapter, MAX_FRAME_LEN};
 use dp_phy::responder::{Input, Responder};
 use dp_phy::Tick;
+use drive_sim::line::DriveLine;
+use drive_sim::DriveSim;
 use std::collections::VecDeque;
 use std::io;
 
@@ -95,7 +95,7 @@ pub struct Bridge<F: Firmware> {
     /// The adapter's last status.
     pub status: Status,
     /// The drive link and the drive behind the adapter.
-    pub drive: DriveWire,
+    pub drive: DriveLine,
     pub figures: LinkFigures,
     /// What happened, in order: state and LED changes, storage writes.
     pub events: Vec<String>,
@@ -140,7 +140,7 @@ impl<F: Firmware> Bridge<F> {
             switch,
             nv,
             status: STATUS_RESET,
-            drive: DriveWire::default(),
+            drive: DriveLine::default(),
             figures: LinkFigures::default(),
             events: Vec::new(),
             clock_hz,
@@ -382,8 +382,12 @@ impl<F: Firmware> Bridge<F> {
             self.from_mcu.push_back((arrived, write.clone()));
         }
         self.mcu_free_ns = done_ns;
-        self.drive
-            .collect(&mut self.firmware, handled.drive_tx_bytes, done_ns / 1000)?;
+        // The bytes the firmware wrote to its drive UART go on the drive line when it is done.
+        let sent = handled.drive_tx_bytes.wrapping_sub(self.drive.received);
+        if sent > 0 {
+            let bytes = self.firmware.drive_receive(sent as usize)?;
+            self.drive.from_firmware(done_ns / 1000, &bytes);
+        }
         Ok(decided_ns)
     }
 

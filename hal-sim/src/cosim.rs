@@ -17,7 +17,6 @@
 //! as microseconds in each event.
 
 use crate::bridge::Bridge;
-use crate::drive_sim::DriveSim;
 use crate::firmware::Firmware;
 use crate::master::MasterPhy;
 use dp_consts::Baud;
@@ -26,6 +25,7 @@ use dp_phy::bus::{Bus, FaultInjector};
 use dp_phy::delimiter::Status as TelegramStatus;
 use dp_phy::responder::DECISION_CLOCKS;
 use dp_phy::{BaudState, BitTiming, Tick, Transceiver};
+use drive_sim::DriveSim;
 use profidrive::codes::FunctionCode;
 use profidrive::drive::PZD1_LINK_ERROR;
 use profidrive::ppo::Ppo;
@@ -70,7 +70,7 @@ impl MasterSetup {
 /// so that PZD2 out (to F0.29) comes back through the drive: [`Program::EchoThroughDrive`].
 pub fn echo_user_prm() -> UserPrm {
     let mut prm = UserPrm::DEFAULT;
-    prm.rd_pzd[0] = FunctionCode(crate::drive_sim::SET_FREQUENCY_STATUS);
+    prm.rd_pzd[0] = FunctionCode(drive_sim::SET_FREQUENCY_STATUS);
     prm
 }
 

@@ -7,15 +7,13 @@
 //! (PKW first, then PZD), big-endian as on the bus.
 
 use crate::cosim::{CoSim, MasterSetup, Program};
-use crate::drive_sim::{
-    DriveSim, LinkFault, ACCEL_TIME, DECEL_TIME, OUTPUT_CURRENT, SET_FREQUENCY,
-};
 use crate::firmware::Firmware;
 use crate::scenario::SWITCH_ADDRESS;
 use dp_consts::Baud;
 use dp_link::Led;
 use drive_link::fieldbus::{self, index as fb};
 use drive_link::LED_ACTIVITY_US;
+use drive_sim::{DriveSim, LinkFault, ACCEL_TIME, DECEL_TIME, OUTPUT_CURRENT, SET_FREQUENCY};
 use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
 use profidrive::codes::FunctionCode;
 use profidrive::pd_params::{request as rq, response, Frame};

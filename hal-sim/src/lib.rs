@@ -6,16 +6,18 @@
 //! - [`firmware`]: the firmware behind the transceiver, the real image in QEMU
 //!   ([`firmware::Qemu`]) or its logic in-process ([`firmware::InProcess`]).
 //! - [`scenario`]: the scenarios of `cargo xtask qemu-test`, each with its checks.
-//! - [`drive_sim`]: the drive behind the adapter, and [`drive_wire`]: the Modbus RTU line to
+//! - [`drive_sim`] (crates/drive-sim): the drive behind the adapter and the Modbus RTU line to
 //!   it on simulated time.
+//! - [`bridge`]: the transceiver's MCU side (responder, link, MCU) on board time.
 #![deny(unsafe_code)]
+
+/// The simulated drive, its own crate (`crates/drive-sim`).
+pub use drive_sim;
 
 pub mod bridge;
 pub mod cosim;
 pub mod dp_cycle;
 pub mod drive_scenarios;
-pub mod drive_sim;
-pub mod drive_wire;
 pub mod firmware;
 pub mod master;
 pub mod scenario;

@@ -6,7 +6,7 @@
 //! adapter's address (or broadcast) go to the firmware as the transceiver would hand them
 //! over; the response, if any, is returned for the port. Time is the caller's (wall-clock
 //! microseconds): the DP watchdog and the drive link run on it, the drive link through the
-//! same [`DriveWire`] as in the simulator.
+//! same [`DriveLine`] as in the simulator.
 
 use crate::bridge::Bridge;
 use crate::firmware::Firmware;

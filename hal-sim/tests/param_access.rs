@@ -8,7 +8,7 @@
 
 use dp_slave::{Application, Instant};
 use drive_link::{Config, LinkedDrive, ModbusMaster};
-use hal_sim::drive_sim::{self, DriveSim, ACCEL_TIME};
+use drive_sim::{self, DriveSim, ACCEL_TIME};
 use profidrive::codes::FunctionCode;
 use profidrive::pd_params::{request as label, response, Frame};
 use profidrive::pkw::{self, Task, REPLY_VALUE};

@@ -39,8 +39,8 @@ pub const DRIVE_ADDRESS: u8 = 1;
 pub const CONTROL_WORD_REGISTER: u16 = 0x2000;
 pub const STATUS_WORD_REGISTER: u16 = 0x2100;
 
-/// The most process data words a PPO carries.
-pub const MAX_PZD_WORDS: usize = 10;
+/// The most process data words a PPO carries (the application's figure).
+pub use profidrive::ppo::MAX_PZD_WORDS;
 
 /// The drive's process-data registers (the simulator documents them): PZD n (2..=10) out is
 /// written to the code held in `PZD_OUT_MAP + n - 1`, PZD n in is read from the code held in

@@ -1,9 +1,9 @@
 //! The Modbus master against a scripted UART (embedded-hal-mock: every byte written and read
-//! is checked) and against the drive simulator of hal-sim over a loopback UART.
+//! is checked) and against the drive simulator (crates/drive-sim) over a loopback UART.
 
 use drive_link::{BlockingDrive, Config, ModbusMaster, Op, Outcome};
+use drive_sim::{self, with_crc, DriveSim, LinkFault};
 use embedded_hal_mock::eh1::serial::{Mock, Transaction};
-use hal_sim::drive_sim::{self, with_crc, DriveSim, LinkFault};
 use profidrive::drive::{DriveError, ImmediateDrive};
 use std::collections::VecDeque;
 

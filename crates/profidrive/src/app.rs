@@ -309,7 +309,9 @@ impl<D: Drive> ProfidriveApp<D> {
     fn record_fault(&mut self, now: Instant) -> bool {
         let read = self
             .fault_read
-            .get_or_insert(ParamRequest::new(Access::Read(FunctionCode(0xDE00))));
+            .get_or_insert(ParamRequest::new(Access::Read(FunctionCode(
+                crate::codes::named::FAULT_RECORD,
+            ))));
         let Some(record) = read.poll(&mut self.drive) else {
             return false;
         };

@@ -10,6 +10,31 @@
 
 use core::fmt;
 
+/// The drive's function codes this project names, defined once for the application, the drive
+/// link, the drive simulator and the tests. Seed 000 names F0.29, F0.33/F0.34 and the D0/DE
+/// values; the ramp times and the maximum frequency are where the drive simulator documents
+/// them.
+pub mod named {
+    /// F0.10, maximum frequency, 0.01 Hz.
+    pub const MAX_FREQUENCY: u16 = 0xF010;
+    /// F0.13, F0.14: acceleration and deceleration time, 0.1 s.
+    pub const ACCEL_TIME: u16 = 0xF013;
+    pub const DECEL_TIME: u16 = 0xF014;
+    /// F0.29: set frequency, 0.01 Hz ("通过 F029 给定运行频率").
+    pub const SET_FREQUENCY: u16 = 0xF029;
+    /// F0.33, F0.34: command source.
+    pub const COMMAND_SOURCE: u16 = 0xF033;
+    pub const COMMAND_SOURCE_2: u16 = 0xF034;
+    /// D0.00: output frequency, 0.01 Hz.
+    pub const OUTPUT_FREQUENCY: u16 = 0xD000;
+    /// D0.01: set frequency, 0.01 Hz.
+    pub const SET_FREQUENCY_STATUS: u16 = 0xD001;
+    /// D0.04: output current, 0.01 A.
+    pub const OUTPUT_CURRENT: u16 = 0xD004;
+    /// DE.00: the newest fault or warning record.
+    pub const FAULT_RECORD: u16 = 0xDE00;
+}
+
 /// A function code; [`FunctionCode::kind`] says whether it names a parameter at all.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

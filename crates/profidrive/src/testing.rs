@@ -1,17 +1,11 @@
 //! A small drive for host tests: registers by function code, the vendor control word obeyed
 //! at once (no ramp), faults and link errors on request. The full drive simulator, with ramps
-//! and the seed's parameter groups, belongs to hal-sim (issue 6).
+//! and the seed's parameter groups, is crates/drive-sim.
 
+pub use crate::codes::named::{FAULT_RECORD, OUTPUT_FREQUENCY, SET_FREQUENCY};
 use crate::codes::FunctionCode;
 use crate::drive::{DriveError, FaultRecord, ImmediateDrive};
 use crate::words::{control, rose, status};
-
-/// Output frequency (D0.00): the set frequency (F0.29) while running.
-pub const OUTPUT_FREQUENCY: u16 = 0xD000;
-/// The set frequency.
-pub const SET_FREQUENCY: u16 = 0xF029;
-/// The newest fault record entry.
-pub const FAULT_RECORD: u16 = 0xDE00;
 
 #[derive(Clone, Debug, Default)]
 pub struct MockDrive {

@@ -1,3 +1,9 @@
+//! The simulated drive (crate `drive-sim`): the model, its Modbus RTU slave side and the line
+//! to it on simulated time ([`line`]). The register map is the drive link's
+//! (`drive_link::{CONTROL_WORD_REGISTER, PZD_*}`, `drive_link::fieldbus`) and the named
+//! function codes are the application's (`profidrive::codes::named`): both sides read one
+//! definition.
+//!
 //! The variable-frequency drive behind the adapter: seed 000's parameter groups, a speed
 //! ramp, the vendor control word (obeyed only with the command source on the communication
 //! module), faults and warnings a scenario injects, and faults of the link itself. It answers
@@ -39,17 +45,10 @@ use profidrive::codes::{CodeKind, FunctionCode};
 use profidrive::drive::{DriveError, FaultRecord, ImmediateDrive};
 use profidrive::words::{control, rose, status};
 
+pub mod line;
+
 pub use drive_link::{CONTROL_WORD_REGISTER as CONTROL_WORD, STATUS_WORD_REGISTER as STATUS_WORD};
-pub const SET_FREQUENCY: u16 = 0xF029;
-pub const COMMAND_SOURCE: u16 = 0xF033;
-pub const COMMAND_SOURCE_2: u16 = 0xF034;
-pub const MAX_FREQUENCY: u16 = 0xF010;
-pub const ACCEL_TIME: u16 = 0xF013;
-pub const DECEL_TIME: u16 = 0xF014;
-pub const OUTPUT_FREQUENCY: u16 = 0xD000;
-pub const SET_FREQUENCY_STATUS: u16 = 0xD001;
-pub const OUTPUT_CURRENT: u16 = 0xD004;
-pub const FAULT_RECORD: u16 = 0xDE00;
+pub use profidrive::codes::named::*;
 
 /// Seed 000's value of F0.33/F0.34 for "extension communication module".
 pub const COMMAND_FROM_MODULE: u16 = 3;

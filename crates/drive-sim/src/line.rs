@@ -5,13 +5,11 @@
 //! reply's time, or when the line is free again after the last frame and the 3.5-character
 //! silence Modbus RTU asks for. A complete request reaches the drive at its last bit; the
 //! drive answers [`PROCESSING_US`] later, and the answer reaches the firmware at its own
-//! last bit: the caller then writes it to the firmware's drive UART and sends a Tick at that
-//! time. Every duration is 11 bits per character at `drive_link::LINK_BAUD`.
+//! last bit: the caller then writes it to the firmware's drive UART and tells the firmware at
+//! that time. Every duration is 11 bits per character at `drive_link::LINK_BAUD`.
 
-use crate::drive_sim::{request_len, DriveSim};
-use crate::firmware::Firmware;
+use crate::{request_len, DriveSim};
 use std::collections::VecDeque;
-use std::io;
 
 /// From a request's last bit to the drive's answer starting.
 pub const PROCESSING_US: u64 = 10;
@@ -48,7 +46,7 @@ pub struct Applied {
 }
 
 #[derive(Debug, Default)]
-pub struct DriveWire {
+pub struct DriveLine {
     pub drive: DriveSim,
     request: Vec<u8>,
     line_free_us: u64,
@@ -65,29 +63,13 @@ pub struct DriveWire {
     pub answered: Vec<Applied>,
 }
 
-impl DriveWire {
+impl DriveLine {
     /// Lets the drive's time run up to `t_us`.
     pub fn advance_to(&mut self, t_us: u64) {
         let now = self.drive.now_us();
         if t_us > now {
             self.drive.advance(t_us - now);
         }
-    }
-
-    /// Reads from `firmware` the bytes it sent beyond those already taken (`sent_total`, from
-    /// a reply's status) and puts them on the line at `t_us`.
-    pub fn collect(
-        &mut self,
-        firmware: &mut impl Firmware,
-        sent_total: u32,
-        t_us: u64,
-    ) -> io::Result<()> {
-        let sent = sent_total.wrapping_sub(self.received);
-        if sent > 0 {
-            let bytes = firmware.drive_receive(sent as usize)?;
-            self.from_firmware(t_us, &bytes);
-        }
-        Ok(())
     }
 
     /// Bytes the firmware wrote, handed over at `t_us`.

@@ -115,7 +115,12 @@ pub struct Stats {
     pub timeouts: u32,
     pub crc_errors: u32,
     pub garbled: u32,
+    /// Bytes of late answers discarded before a transaction.
+    pub stale_bytes: u32,
 }
+
+/// The longest answer: an exchange of 10 words (25 bytes), with room.
+const MAX_ANSWER_LEN: usize = 32;
 
 struct Pending {
     op: Op,
@@ -132,7 +137,7 @@ pub struct ModbusMaster<U> {
     pending: Option<Pending>,
     tx: Vec<u8, 40>,
     tx_pos: usize,
-    rx: Vec<u8, 32>,
+    rx: Vec<u8, MAX_ANSWER_LEN>,
     /// The UART reported noise, parity or framing errors during this answer.
     noise: bool,
     pub stats: Stats,
@@ -217,9 +222,24 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
             sent_at: None,
         });
         self.tx_pos = 0;
+        self.discard_stale();
+        Ok(())
+    }
+
+    /// Forgets what was received so far, and the bytes already waiting in the UART: they
+    /// belong to an answer that came after its transaction timed out, and read as the start of
+    /// the next answer they would shift every answer after it.
+    fn discard_stale(&mut self) {
         self.rx.clear();
         self.noise = false;
-        Ok(())
+        // Bounded: a UART that reports an error on every read must not keep us here.
+        for _ in 0..2 * MAX_ANSWER_LEN {
+            match self.uart.read() {
+                Ok(_) => self.stats.stale_bytes += 1,
+                Err(nb::Error::WouldBlock) => break,
+                Err(nb::Error::Other(_)) => {}
+            }
+        }
     }
 
     /// Moves bytes and finishes the transaction when it can; `now_us` runs the timeout.
@@ -348,8 +368,7 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
         pending.sent_at = None;
         self.stats.retries += 1;
         self.tx_pos = 0;
-        self.rx.clear();
-        self.noise = false;
+        self.discard_stale();
         true
     }
 }

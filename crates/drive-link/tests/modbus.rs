@@ -17,6 +17,8 @@ fn read_frame_and_answer() {
     let request = with_crc(vec![0x01, 0x03, 0xF0, 0x29, 0x00, 0x01]);
     let answer = with_crc(vec![0x01, 0x03, 0x02, 0x09, 0xC4]);
     let mut uart = Mock::new(&[
+        // The master first discards stale bytes (a late answer): none here.
+        would_block(),
         Transaction::write_many(request),
         Transaction::read_many(answer),
     ]);
@@ -31,6 +33,8 @@ fn read_frame_and_answer() {
 fn write_frame_and_echo() {
     let request = with_crc(vec![0x01, 0x06, 0x20, 0x00, 0x00, 0x16]);
     let mut uart = Mock::new(&[
+        // The master first discards stale bytes (a late answer): none here.
+        would_block(),
         Transaction::write_many(request.clone()),
         would_block(),
         Transaction::read_many(request),
@@ -54,6 +58,8 @@ fn exceptions_map_to_seed_000_errors() {
         let request = with_crc(vec![0x01, 0x03, 0xF0, 0x58, 0x00, 0x01]);
         let answer = with_crc(vec![0x01, 0x83, code]);
         let mut uart = Mock::new(&[
+            // The master first discards stale bytes (a late answer): none here.
+            would_block(),
             Transaction::write_many(request),
             Transaction::read_many(answer),
         ]);
@@ -75,8 +81,12 @@ fn a_crc_error_is_retried_and_the_retry_succeeds() {
     bad[6] ^= 0xFF;
     let good = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
     let mut uart = Mock::new(&[
+        // The master first discards stale bytes (a late answer): none here.
+        would_block(),
         Transaction::write_many(request.clone()),
         Transaction::read_many(bad),
+        // The master first discards stale bytes (a late answer): none here.
+        would_block(),
         Transaction::write_many(request),
         Transaction::read_many(good),
     ]);
@@ -98,6 +108,8 @@ fn uart_noise_makes_a_bad_answer_bus_noise() {
         retries: 0,
     };
     let mut uart = Mock::new(&[
+        // The master first discards stale bytes (a late answer): none here.
+        would_block(),
         Transaction::write_many(request),
         Transaction::read_error(nb::Error::Other(embedded_hal_nb::serial::ErrorKind::Noise)),
         Transaction::read_many(bad),
@@ -117,6 +129,8 @@ fn no_answer_times_out_after_the_retries() {
     };
     let mut script = Vec::new();
     for _ in 0..3 {
+        // Each attempt first discards stale bytes (none), then sends and waits.
+        script.push(would_block());
         script.push(Transaction::write_many(request.clone()));
         script.push(would_block());
         script.push(would_block());
@@ -394,5 +408,121 @@ mod linked {
         assert_ne!(word(&inputs, 8) & 0xC000, 0xC000);
         assert_eq!(sim(&mut app).read_register(0xF029), Ok(2600));
         assert_eq!(sim(&mut app).read_register(0x2301), Ok(0xD000));
+    }
+}
+
+/// A UART to a drive that answers each complete request after a delay the test sets: bytes
+/// become readable at their time on a clock the test moves.
+struct DelayedUart {
+    drive: DriveSim,
+    written: Vec<u8>,
+    /// (readable from, byte)
+    pending: VecDeque<(u64, u8)>,
+    now_us: u64,
+    /// Delay of the next answer; afterwards `normal_delay_us`.
+    next_delay_us: Option<u64>,
+    normal_delay_us: u64,
+}
+
+impl embedded_hal_nb::serial::ErrorType for DelayedUart {
+    type Error = embedded_hal_nb::serial::ErrorKind;
+}
+
+impl embedded_hal_nb::serial::Read<u8> for DelayedUart {
+    fn read(&mut self) -> nb::Result<u8, Self::Error> {
+        match self.pending.front() {
+            Some(&(at, byte)) if at <= self.now_us => {
+                self.pending.pop_front();
+                Ok(byte)
+            }
+            _ => Err(nb::Error::WouldBlock),
+        }
+    }
+}
+
+impl embedded_hal_nb::serial::Write<u8> for DelayedUart {
+    fn write(&mut self, word: u8) -> nb::Result<(), Self::Error> {
+        self.written.push(word);
+        if drive_sim::request_len(&self.written) == Some(self.written.len()) {
+            let request = std::mem::take(&mut self.written);
+            if let Some(answer) = self.drive.modbus(&request) {
+                let delay = self.next_delay_us.take().unwrap_or(self.normal_delay_us);
+                let at = self.now_us + delay;
+                // Behind whatever is still on its way (the line is serial).
+                let at = self.pending.back().map_or(at, |(t, _)| at.max(*t));
+                self.pending.extend(answer.into_iter().map(|b| (at, b)));
+            }
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> nb::Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+/// The transaction `i` of a run: reads of F0.29 (2500) and writes of F0.13 in turn (their
+/// answers differ in length, as a link's transactions do), and what it must give.
+fn transaction(i: usize) -> (Op, Outcome) {
+    if i.is_multiple_of(2) {
+        (Op::Read(0xF029), Outcome::Value(2500))
+    } else {
+        (Op::Write(0xF013, 50 + i as u16), Outcome::Written)
+    }
+}
+
+/// Runs `count` transactions one after the other, polling every 100 µs; the answer to
+/// transaction `late` comes after `late_us`. Returns each transaction's outcome.
+fn reads_with_one_late_answer(count: usize, late: usize, late_us: u64) -> Vec<Option<Outcome>> {
+    let mut drive = DriveSim::default();
+    drive.write_register(0xF029, 2500, true).unwrap();
+    let uart = DelayedUart {
+        drive,
+        written: Vec::new(),
+        pending: VecDeque::new(),
+        now_us: 0,
+        next_delay_us: None,
+        normal_delay_us: 100,
+    };
+    let mut master = ModbusMaster::new(uart, Config::default());
+    let mut now = 0;
+    let mut outcomes = Vec::new();
+    for i in 0..count {
+        if i == late {
+            master.uart_mut().next_delay_us = Some(late_us);
+        }
+        master.start(transaction(i).0).unwrap();
+        let mut outcome = None;
+        for _ in 0..200 {
+            now += 100;
+            master.uart_mut().now_us = now;
+            if let Some(o) = master.poll(now) {
+                outcome = Some(o);
+                break;
+            }
+        }
+        outcomes.push(outcome);
+    }
+    outcomes
+}
+
+#[test]
+fn answers_in_time_or_just_before_the_timeout_all_arrive() {
+    for late_us in [100, 1_900] {
+        let outcomes = reads_with_one_late_answer(40, 7, late_us);
+        for (i, o) in outcomes.iter().enumerate() {
+            assert_eq!(*o, Some(transaction(i).1), "{late_us} us, transaction {i}");
+        }
+    }
+}
+
+/// An answer that arrives after the timeout belongs to a transaction the master gave up on
+/// (or retried): it must not be read as the next answer. Issue 16: one answer at 2.5 ms broke
+/// every later transaction with a CRC error.
+#[test]
+fn a_late_answer_costs_at_most_its_own_transaction() {
+    let outcomes = reads_with_one_late_answer(40, 7, 2_500);
+    for (i, o) in outcomes.iter().enumerate().skip(8) {
+        assert_eq!(*o, Some(transaction(i).1), "transaction {i}: {outcomes:?}");
     }
 }

@@ -2,7 +2,12 @@
 //!
 //! Contract: a byte stream from a PC master or a PLC behind a USB-RS485 converter has no bit
 //! timing, so telegrams are delimited by their start delimiter and length (SD1 6 bytes, SD2
-//! LE + 6, SD3 14, SD4 3, SC 1); a byte that starts none is skipped. Telegrams for the
+//! LE + 6, SD3 14, SD4 3, SC 1). The stream resynchronises: a byte that starts none is skipped;
+//! an SD2 header whose LE and LEr differ, whose LE is out of range or whose second delimiter
+//! is wrong is no start either; a candidate whose FCS or end delimiter fails costs one byte
+//! (the search slides on by one, so a telegram behind a stray byte is still found); and bytes
+//! of an unfinished telegram are dropped after [`STREAM_GAP_US`] of silence, since a master
+//! sends a telegram in one go. Telegrams for the
 //! adapter's address (or broadcast) go to the firmware as the transceiver would hand them
 //! over; the response, if any, is returned for the port. Time is the caller's (wall-clock
 //! microseconds): the DP watchdog and the drive link run on it, the drive link through the
@@ -11,6 +16,11 @@
 use crate::bridge::Bridge;
 use crate::firmware::Firmware;
 use std::io;
+
+/// Silence after which the bytes of an unfinished telegram are dropped: longer than a
+/// USB-serial converter's latency timer (16 ms by default on the common ones), which can split
+/// one telegram into two reads.
+pub const STREAM_GAP_US: u64 = 20_000;
 
 /// A byte that starts no telegram.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,8 +34,24 @@ pub fn telegram_len(bytes: &[u8]) -> Result<Option<usize>, NotAStart> {
         Some(&dp_consts::SD3) => Ok(Some(14)),
         Some(&dp_consts::SD4) => Ok(Some(3)),
         Some(&dp_consts::SC) => Ok(Some(1)),
-        Some(&dp_consts::SD2) => Ok(bytes.get(1).map(|le| usize::from(*le) + 6)),
+        Some(&dp_consts::SD2) => match bytes.get(1..4) {
+            None => Ok(bytes.get(1).map(|le| usize::from(*le) + 6)),
+            Some(&[le, ler, sd])
+                if le == ler && sd == dp_consts::SD2 && (4..=249).contains(&le) =>
+            {
+                Ok(Some(usize::from(le) + 6))
+            }
+            Some(_) => Err(NotAStart),
+        },
         Some(_) => Err(NotAStart),
+    }
+}
+
+/// Whether `bytes` start with a whole, valid telegram.
+fn complete(bytes: &[u8]) -> bool {
+    match telegram_len(bytes) {
+        Ok(Some(len)) if bytes.len() >= len => fdl::Telegram::new_checked(&bytes[..len]).is_ok(),
+        _ => false,
     }
 }
 
@@ -35,6 +61,8 @@ pub struct SerialAdapter<F: Firmware> {
     /// The rate index reported to the firmware (the port's rate, for 963).
     pub baud: dp_consts::Baud,
     pending: Vec<u8>,
+    /// When the last bytes arrived.
+    last_bytes_us: u64,
     pub telegrams: u64,
     pub responses: u64,
     pub skipped_bytes: u64,
@@ -57,6 +85,7 @@ impl<F: Firmware> SerialAdapter<F> {
             bridge,
             baud,
             pending: Vec::new(),
+            last_bytes_us: 0,
             telegrams: 0,
             responses: 0,
             skipped_bytes: 0,
@@ -76,6 +105,11 @@ impl<F: Firmware> SerialAdapter<F> {
     /// Bytes from the port at `now_us`; returns what to send back.
     pub fn on_bytes(&mut self, now_us: u64, bytes: &[u8]) -> io::Result<Vec<u8>> {
         self.poll(now_us)?;
+        if now_us.saturating_sub(self.last_bytes_us) > STREAM_GAP_US {
+            self.skipped_bytes += self.pending.len() as u64;
+            self.pending.clear();
+        }
+        self.last_bytes_us = now_us;
         self.pending.extend_from_slice(bytes);
         let mut out = Vec::new();
         loop {
@@ -86,9 +120,26 @@ impl<F: Firmware> SerialAdapter<F> {
                     continue;
                 }
                 Ok(None) => break,
-                Ok(Some(len)) if self.pending.len() < len => break,
+                Ok(Some(len)) if self.pending.len() < len => {
+                    // Unfinished. A master sends one telegram after the other, so a complete
+                    // one behind its start means the start was not one.
+                    match (1..self.pending.len()).find(|at| complete(&self.pending[*at..])) {
+                        Some(at) => {
+                            self.pending.drain(..at);
+                            self.skipped_bytes += at as u64;
+                            continue;
+                        }
+                        None => break,
+                    }
+                }
                 Ok(Some(len)) => len,
             };
+            if fdl::Telegram::new_checked(&self.pending[..len]).is_err() {
+                // Not a telegram after all (FCS, end delimiter): slide on by one byte.
+                self.pending.remove(0);
+                self.skipped_bytes += 1;
+                continue;
+            }
             let telegram: Vec<u8> = self.pending.drain(..len).collect();
             self.telegrams += 1;
             let baud = self.baud.index() as u8;
@@ -111,6 +162,10 @@ mod tests {
         assert_eq!(telegram_len(&[0x10]), Ok(Some(6)));
         assert_eq!(telegram_len(&[0x68]), Ok(None));
         assert_eq!(telegram_len(&[0x68, 0x05]), Ok(Some(11)));
+        assert_eq!(telegram_len(&[0x68, 0x05, 0x05, 0x68]), Ok(Some(11)));
+        assert_eq!(telegram_len(&[0x68, 0x05, 0x06, 0x68]), Err(NotAStart));
+        assert_eq!(telegram_len(&[0x68, 0x05, 0x05, 0x10]), Err(NotAStart));
+        assert_eq!(telegram_len(&[0x68, 0xFA, 0xFA, 0x68]), Err(NotAStart));
         assert_eq!(telegram_len(&[0xA2]), Ok(Some(14)));
         assert_eq!(telegram_len(&[0xDC]), Ok(Some(3)));
         assert_eq!(telegram_len(&[0xE5]), Ok(Some(1)));
@@ -130,5 +185,64 @@ mod tests {
         // Another station's telegram gets nothing.
         let other = [0x10, 0x09, 0x02, 0x49, 0x54, 0x16];
         assert!(adapter.on_bytes(40, &other).unwrap().is_empty());
+    }
+
+    const FDL_STATUS: [u8; 6] = [0x10, 0x08, 0x02, 0x49, 0x53, 0x16];
+
+    /// `junk` at t = 1 ms, then ten FDL_Status requests 1 ms apart (a master polling fast,
+    /// well inside the stream gap); returns how many were answered at once (an answer that
+    /// comes with a later request's is lost to a master).
+    fn answered_after(junk: &[u8]) -> usize {
+        let mut adapter = SerialAdapter::new(InProcess::new(), 8, dp_consts::Baud::B19200).unwrap();
+        let mut t = 1_000;
+        let _ = adapter.on_bytes(t, junk).unwrap();
+        let mut answered = 0;
+        for _ in 0..10 {
+            t += 1_000;
+            if adapter.on_bytes(t, &FDL_STATUS).unwrap() == [0x10, 0x02, 0x08, 0x00, 0x0A, 0x16] {
+                answered += 1;
+            }
+        }
+        answered
+    }
+
+    /// Issue 16: `68 F0` cost 41 requests, 256 random bytes 36, a truncated SD2 4.
+    #[test]
+    fn a_stray_byte_costs_at_most_the_telegram_it_hit() {
+        assert_eq!(answered_after(&[0x68, 0xF0]), 10, "68 F0");
+        assert_eq!(
+            answered_after(&[0x68, 0x05, 0x05, 0x68, 0x88]),
+            10,
+            "a truncated SD2"
+        );
+        use rand::{Rng, SeedableRng};
+        for seed in 0..20 {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let junk: Vec<u8> = (0..256).map(|_| rng.gen()).collect();
+            assert!(answered_after(&junk) >= 9, "256 random bytes, seed {seed}");
+        }
+    }
+
+    #[test]
+    fn an_unfinished_telegram_is_dropped_after_a_silence() {
+        let mut adapter = SerialAdapter::new(InProcess::new(), 8, dp_consts::Baud::B19200).unwrap();
+        // An SD2 that announces 11 bytes and stops after 6: the master gave up on it.
+        let _ = adapter
+            .on_bytes(1_000, &[0x68, 0x05, 0x05, 0x68, 0x88, 0x02])
+            .unwrap();
+        let answer = adapter
+            .on_bytes(1_000 + STREAM_GAP_US + 1, &FDL_STATUS)
+            .unwrap();
+        assert_eq!(answer, [0x10, 0x02, 0x08, 0x00, 0x0A, 0x16]);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 64, ..Default::default() })]
+
+        /// Any bytes before a master's requests cost at most one of them, and never panic.
+        #[test]
+        fn any_junk_costs_at_most_one_request(junk in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..300)) {
+            proptest::prop_assert!(answered_after(&junk) >= 9);
+        }
     }
 }

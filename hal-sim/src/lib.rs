@@ -5,7 +5,7 @@
 //!   switch, storage and LEDs.
 //! - [`firmware`]: the firmware behind the transceiver, the real image in QEMU
 //!   ([`firmware::Qemu`]) or its logic in-process ([`firmware::InProcess`]).
-//! - [`scenario`]: the scenarios of `cargo xtask qemu-test`, each with its checks.
+//! - [`scenarios`]: the scenarios of `cargo xtask qemu-test`, one catalog, a file per family.
 //! - [`drive_sim`] (crates/drive-sim): the drive behind the adapter and the Modbus RTU line to
 //!   it on simulated time.
 //! - [`bridge`]: the transceiver's MCU side (responder, link, MCU) on board time.
@@ -17,8 +17,7 @@ pub use drive_sim;
 pub mod bridge;
 pub mod cosim;
 pub mod dp_cycle;
-pub mod drive_scenarios;
 pub mod firmware;
 pub mod master;
-pub mod scenario;
+pub mod scenarios;
 pub mod serial;

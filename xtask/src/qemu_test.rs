@@ -11,7 +11,7 @@
 use crate::{check_flags, flag_value, project_root};
 use anyhow::{anyhow, bail, Context, Result};
 use hal_sim::firmware::Qemu;
-use hal_sim::scenario::{self, Outcome};
+use hal_sim::scenarios::{self, Outcome};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -98,9 +98,9 @@ pub fn run(args: &[String]) -> Result<()> {
     }
 
     let expected_dir = project_root().join("ci/expected/qemu-test");
-    let scenarios: Vec<_> = scenario::all()
+    let scenarios: Vec<&str> = scenarios::names()
         .into_iter()
-        .filter(|s| only.is_none_or(|o| s.name == o))
+        .filter(|name| only.is_none_or(|o| *name == o))
         .collect();
     if scenarios.is_empty() {
         bail!("no scenario named {:?}", only.unwrap_or_default());
@@ -127,7 +127,7 @@ pub fn run(args: &[String]) -> Result<()> {
             "[{:>2}/{}] {:<24} {} ({:.1} s)",
             i + 1,
             scenarios.len(),
-            s.name,
+            s,
             if ok { "ok" } else { "FAILED" },
             t0.elapsed().as_secs_f64()
         );
@@ -137,7 +137,7 @@ pub fn run(args: &[String]) -> Result<()> {
         if !ok {
             failures += 1;
         }
-        rows.push((s.name.clone(), ok, outcome));
+        rows.push((s.to_string(), ok, outcome));
     }
     print_table(&rows);
     for (_, _, outcome) in &rows {
@@ -195,12 +195,12 @@ fn run_one(
     qemu: &Path,
     elf: &Path,
     table: &defmt_decoder::Table,
-    s: &scenario::Scenario,
+    name: &str,
     expected_dir: &Path,
     overwrite: bool,
 ) -> Result<(Outcome, Vec<String>)> {
     let firmware = Qemu::start(qemu, elf).context("starting QEMU")?;
-    let (outcome, firmware) = scenario::run(s, firmware)?;
+    let (outcome, firmware) = scenarios::run(name, firmware)?;
     let streams = firmware.stop();
     let mut text = String::new();
     for line in &outcome.events {
@@ -217,7 +217,7 @@ fn run_one(
             text.push_str(&format!("{level:<5} {message}\n"));
         }
     }
-    let path = expected_dir.join(format!("{}.txt", s.name));
+    let path = expected_dir.join(format!("{name}.txt"));
     if overwrite {
         std::fs::create_dir_all(expected_dir)?;
         std::fs::write(&path, &text)?;

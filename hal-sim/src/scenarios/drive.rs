@@ -1,4 +1,4 @@
-//! The drive scenarios of `cargo xtask qemu-test`: the profirust master drives the simulated
+//! The drive scenarios (family "drive") of `cargo xtask qemu-test`: the profirust master drives the simulated
 //! drive through the adapter (PZD and the parameter channel), in both profiles; the fail-safe
 //! modes; the drive's fieldbus group 51; and the adapter's latency per PPO.
 //!
@@ -6,9 +6,9 @@
 //! taken from the adapter's own account. The master's outputs and inputs are words here
 //! (PKW first, then PZD), big-endian as on the bus.
 
+use super::support::{Checks, Report, SWITCH_ADDRESS};
 use crate::cosim::{CoSim, MasterSetup, Program};
 use crate::firmware::Firmware;
-use crate::scenario::SWITCH_ADDRESS;
 use dp_consts::Baud;
 use dp_link::Led;
 use drive_link::fieldbus::{self, index as fb};
@@ -23,12 +23,6 @@ use profidrive::prm::{FailSafeMode, OperationMode, UserPrm};
 use profidrive::profile::{control as pd, status as pds};
 use profidrive::words::{control, status};
 use std::io;
-
-type Checks = Vec<(String, bool)>;
-
-fn check(c: &mut Checks, what: impl Into<String>, ok: bool) {
-    c.push((what.into(), ok));
-}
 
 const BAUD: Baud = Baud::B1500000;
 /// The vendor control word that runs the drive forward.
@@ -99,7 +93,7 @@ fn wait<F: Firmware>(
 fn wait_diag<F: Firmware>(sim: &mut CoSim<F>, limit_us: u64, flag: u8) -> io::Result<Vec<u8>> {
     let end = sim.now_us() + limit_us;
     loop {
-        let diag = crate::scenario::ext_diag(sim);
+        let diag = super::support::ext_diag(sim);
         if diag.get(1).is_some_and(|f| f & flag != 0) || sim.now_us() >= end {
             return Ok(diag);
         }
@@ -142,48 +136,42 @@ fn vendor_reply(reply: &Option<Vec<u16>>) -> Option<(u8, u16)> {
 
 /// Seed 000 in the vendor profile, PPO1: parameters, a run with the ramp, reverse, quick and
 /// coast stop, another PZD mapping, a drive fault and its reset, the drive link lost and back.
-pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()> {
+pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::Result<Report> {
     let ok = start(sim, setup(Ppo::Ppo1, UserPrm::DEFAULT))?;
-    check(c, "PPO1, vendor profile: data exchange", ok);
+    c.check("PPO1, vendor profile: data exchange", ok);
 
     // PKW: ramps of 1.0 s (F0.13, F0.14 in 0.1 s), read back; then the error paths.
     let idle = [control::REMOTE, 0];
     let r = pkw(sim, vendor_request(Task::Write, ACCEL_TIME, 10), &idle)?;
-    check(
-        c,
+    c.check(
         "PKW write F0.13 = 10: reply 1 with the value",
         vendor_reply(&r) == Some((REPLY_VALUE, 10)),
     );
     let r = pkw(sim, vendor_request(Task::Write, DECEL_TIME, 10), &idle)?;
-    check(
-        c,
+    c.check(
         "PKW write F0.14 = 10: reply 1",
         vendor_reply(&r) == Some((REPLY_VALUE, 10)),
     );
     let held = sim.drive_now().read_register(ACCEL_TIME) == Ok(10)
         && sim.drive_now().read_register(DECEL_TIME) == Ok(10);
-    check(c, "the drive holds F0.13 = F0.14 = 10", held);
+    c.check("the drive holds F0.13 = F0.14 = 10", held);
     let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &idle)?;
-    check(
-        c,
+    c.check(
         "PKW read F0.13: reply 1, 10",
         vendor_reply(&r) == Some((REPLY_VALUE, 10)),
     );
     let r = pkw(sim, vendor_request(Task::Read, 0xF058, 0), &idle)?;
-    check(
-        c,
+    c.check(
         "PKW read F0.58 (no such parameter): reply 7, 0x02 illegal address",
         vendor_reply(&r) == Some((REPLY_REFUSED, 0x02)),
     );
     let r = pkw(sim, vendor_request(Task::Write, 0xD000, 1), &idle)?;
-    check(
-        c,
+    c.check(
         "PKW write D0.00 (a status value): reply 7, 0x11 access restricted",
         vendor_reply(&r) == Some((REPLY_REFUSED, 0x11)),
     );
     let r = pkw(sim, vendor_request(Task::Write, SET_FREQUENCY, 9000), &idle)?;
-    check(
-        c,
+    c.check(
         "PKW write F0.29 above F0.10: reply 7, 0x03 invalid data",
         vendor_reply(&r) == Some((REPLY_REFUSED, 0x03)),
     );
@@ -192,8 +180,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
         vendor_request(Task::Unknown(5), SET_FREQUENCY, 0),
         &idle,
     )?;
-    check(
-        c,
+    c.check(
         "PKW task 5: reply 7, 0x01 illegal operation",
         vendor_reply(&r) == Some((REPLY_REFUSED, 0x01)),
     );
@@ -204,16 +191,14 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     let accelerating = wait(sim, 100_000, |i, _| {
         i[4] & status::ACCELERATING != 0 && i[5] > 0
     })?;
-    check(
-        c,
+    c.check(
         "run: status word accelerating, output frequency rising",
         accelerating,
     );
     let at_setpoint = wait(sim, 700_000, |i, d| {
         i[4] & status::AT_SETPOINT != 0 && i[5] == 2500 && d.output_frequency() == 2500
     })?;
-    check(
-        c,
+    c.check(
         "run: at setpoint 25.00 Hz within the ramp time (PZD2 in = D0.00)",
         at_setpoint,
     );
@@ -222,7 +207,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     let reversed = wait(sim, 1_500_000, |i, d| {
         i[4] & status::REVERSE != 0 && i[4] & status::AT_SETPOINT != 0 && d.reverse()
     })?;
-    check(c, "reverse: through zero to 25.00 Hz reverse", reversed);
+    c.check("reverse: through zero to 25.00 Hz reverse", reversed);
     out[4] = START | control::QUICK_STOP;
     put(sim, &out);
     let t0 = sim.now_us();
@@ -231,8 +216,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     })?;
     let quick_ms = (sim.now_us() - t0) / 1000;
     // From 25.00 Hz at a tenth of the 1.0 s deceleration: 50 ms, plus the link's delay.
-    check(
-        c,
+    c.check(
         format!("quick stop: zero speed in {quick_ms} ms (< 100)"),
         stopped && quick_ms < 100,
     );
@@ -243,8 +227,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     put(sim, &out);
     let t0 = sim.now_us();
     let coasted = wait(sim, 100_000, |i, _| i[5] == 0)?;
-    check(
-        c,
+    c.check(
         format!("coast stop: output off at once ({} us)", sim.now_us() - t0),
         coasted && sim.now_us() - t0 < 5_000,
     );
@@ -254,16 +237,14 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     put(sim, &out);
     sim.drive_now().inject_fault(12);
     let faulted = wait(sim, 50_000, |i, _| i[4] & status::FAULT != 0)?;
-    check(c, "Fu.012: the status word shows the fault", faulted);
+    c.check("Fu.012: the status word shows the fault", faulted);
     let r = pkw(sim, vendor_request(Task::Read, 0xDE00, 0), &out[4..])?;
-    check(
-        c,
+    c.check(
         "PKW read DE.00: 0x8C (Fu.012)",
         vendor_reply(&r) == Some((REPLY_VALUE, 0x8C)),
     );
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
-    check(
-        c,
+    c.check(
         format!("the diagnosis shows the drive fault ({diag:02X?})"),
         diag.get(1)
             .is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0),
@@ -273,17 +254,16 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     let reset = wait(sim, 50_000, |i, d| {
         i[4] & status::FAULT == 0 && d.fault().is_none()
     })?;
-    check(c, "fault reset (control bit 15): fault cleared", reset);
+    c.check("fault reset (control bit 15): fault cleared", reset);
     out[4] = START;
     put(sim, &out);
 
     // The drive link lost: PZD1 0xC022, the diagnosis, PKW refused with 0x22; and back.
     sim.drive_now().link_fault = LinkFault::Disconnected;
     let lost = wait(sim, 50_000, |i, _| i[4] == 0xC022)?;
-    check(c, "cable out: PZD1 = 0xC022 (no answer) within 50 ms", lost);
+    c.check("cable out: PZD1 = 0xC022 (no answer) within 50 ms", lost);
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY)?;
-    check(
-        c,
+    c.check(
         format!("the diagnosis: drive link lost ({diag:02X?})"),
         diag.get(1)
             .is_some_and(|f| f & profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY != 0),
@@ -291,9 +271,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
     let end = sim.now + LED_ACTIVITY_US * TICKS_PER_US * 3 / 2;
     sim.run_until(end, |s| s.bridge.status.leds.rx == Led::Off)?;
     let leds = sim.bridge.status.leds;
-    check(
-        c,
-        format!(
+    c.check(format!(
             "cable out: TX flashes, RX off within {} ms, Run blinks 2 Hz (tx {:?}, rx {:?}, run {:?})",
             LED_ACTIVITY_US / 1000,
             leds.tx, leds.rx, leds.run
@@ -301,22 +279,19 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
         (leds.tx, leds.rx, leds.run) == (Led::Blink4Hz, Led::Off, Led::Blink2Hz),
     );
     let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &out[4..])?;
-    check(
-        c,
+    c.check(
         "PKW to a drive that does not answer: reply 7, 0x22",
         vendor_reply(&r) == Some((REPLY_REFUSED, 0x22)),
     );
     sim.drive_now().link_fault = LinkFault::CrcError;
     let crc = wait(sim, 50_000, |i, _| i[4] == 0xC023)?;
-    check(c, "answers with a bad CRC: PZD1 = 0xC023", crc);
+    c.check("answers with a bad CRC: PZD1 = 0xC023", crc);
     sim.drive_now().link_fault = LinkFault::None;
     let back = wait(sim, 50_000, |i, _| {
         i[4] & 0xFF00 != 0xC000 && i[4] & status::RUNNING != 0
     })?;
     let leds = sim.bridge.status.leds;
-    check(
-        c,
-        format!(
+    c.check(format!(
             "cable back: the status word again, the drive running; TX and RX flash, Run flashes 1 Hz (tx {:?}, rx {:?}, run {:?})",
             leds.tx, leds.rx, leds.run
         ),
@@ -332,8 +307,8 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()>
         && wait(sim, 700_000, |i, d| {
             i[5] != 0 && i[5] == d.output_frequency() / 10 && d.output_frequency() == 2500
         })?;
-    check(c, "RdPZD2 = D0.04: PZD2 in is the output current", remapped);
-    Ok(())
+    c.check("RdPZD2 = D0.04: PZD2 in is the output current", remapped);
+    Ok(Vec::new())
 }
 
 fn pd_request(label: u8, pnu: u16, index: u8, value: u32) -> [u16; 4] {
@@ -366,17 +341,17 @@ fn pd_reply(reply: &Option<Vec<u16>>) -> Option<(u8, u32)> {
 /// speed reference and actual value scaled to 0x4000, reverse by a negative reference, OFF3
 /// quick stop and OFF2 coast stop, drive parameters and PROFIdrive parameters through the
 /// parameter channel with their error numbers, a fault in 945 and its acknowledgement.
-pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()> {
+pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::Result<Report> {
     let prm = UserPrm {
         operation: OperationMode::Profidrive,
         ..UserPrm::DEFAULT
     };
     let ok = start(sim, setup(Ppo::Ppo1, prm))?;
-    check(c, "PPO1, PROFIdrive profile: data exchange", ok);
+    c.check("PPO1, PROFIdrive profile: data exchange", ok);
     let mut out = vec![0, 0, 0, 0, pd::READY, 0x2000];
     put(sim, &out);
     let ready = wait(sim, 100_000, |i, _| i[4] & pds::RDY_ON != 0)?;
-    check(c, "READY (0x047E): status word ready to switch on", ready);
+    c.check("READY (0x047E): status word ready to switch on", ready);
     // Drive parameters 113/114 (F0.13/F0.14): ramps of 1.0 s.
     for pnu_number in [113u16, 114] {
         let r = pkw(
@@ -384,21 +359,18 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
             pd_request(rq::WRITE_WORD, pnu_number >> 8, pnu_number as u8, 10),
             &out[4..],
         )?;
-        check(
-            c,
+        c.check(
             format!("PKW write drive parameter {pnu_number} = 10: accepted"),
             pd_reply(&r).is_some_and(|(l, v)| l == response::ARRAY_WORD && v == 10),
         );
     }
     let r = pkw(sim, pd_request(rq::READ, 918, 0, 0), &out[4..])?;
-    check(
-        c,
+    c.check(
         "PKW read 918 (node address): 8",
         pd_reply(&r) == Some((response::WORD, u32::from(SWITCH_ADDRESS))),
     );
     let r = pkw(sim, pd_request(rq::READ, 999, 0, 0), &out[4..])?;
-    check(
-        c,
+    c.check(
         "PKW read 999 (no such parameter): error 0",
         pd_reply(&r) == Some((response::ERROR, 0)),
     );
@@ -407,15 +379,13 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
         pd_request(rq::WRITE_WORD, 2100 >> 8, 2100u16 as u8, 5),
         &out[4..],
     )?;
-    check(
-        c,
+    c.check(
         "PKW write drive parameter 2100 (D0.00, a status value): error 1, read only",
         pd_reply(&r) == Some((response::ERROR, 1)),
     );
     sim.drive_now().link_fault = LinkFault::NoAnswer;
     let r = pkw(sim, pd_request(rq::READ, 0, 113, 0), &out[4..])?;
-    check(
-        c,
+    c.check(
         "PKW read 113 from a drive that does not answer: error 111, timeout",
         pd_reply(&r) == Some((response::ERROR, 111)),
     );
@@ -425,16 +395,14 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
     let running = wait(sim, 800_000, |i, d| {
         i[4] & pds::AT_SETPOINT != 0 && i[5] == 0x2000 && d.output_frequency() == 2500
     })?;
-    check(
-        c,
+    c.check(
         "OPERATE, reference 0x2000: the drive at 25.00 Hz, actual 0x2000, at setpoint",
         running,
     );
     out[5] = 0xE000; // -0x2000
     put(sim, &out);
     let reversed = wait(sim, 1_500_000, |i, d| i[5] == 0xE000 && d.reverse())?;
-    check(
-        c,
+    c.check(
         "reference -0x2000: reverse at 25.00 Hz, actual -0x2000",
         reversed,
     );
@@ -442,8 +410,7 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
     put(sim, &out);
     let t0 = sim.now_us();
     let off3 = wait(sim, 300_000, |i, d| i[5] == 0 && d.output_frequency() == 0)?;
-    check(
-        c,
+    c.check(
         format!(
             "OFF3 (quick stop): zero speed in {} ms",
             (sim.now_us() - t0) / 1000
@@ -460,7 +427,7 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
     out[4] = pd::OPERATE & !pd::NO_OFF2;
     put(sim, &out);
     let off2 = wait(sim, 20_000, |_, d| d.output_frequency() == 0)?;
-    check(c, "OFF2 (coast stop): output off at once", off2);
+    c.check("OFF2 (coast stop): output off at once", off2);
     out[4] = pd::READY;
     put(sim, &out);
     wait(sim, 50_000, |i, _| i[4] & pds::RDY_ON != 0)?;
@@ -468,16 +435,14 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
     put(sim, &out);
     sim.drive_now().inject_fault(12);
     let tripped = wait(sim, 50_000, |i, _| i[4] & pds::TRIPPED != 0)?;
-    check(c, "Fu.012: status word bit 3 (fault)", tripped);
+    c.check("Fu.012: status word bit 3 (fault)", tripped);
     let r = pkw(sim, pd_request(rq::READ_ARRAY, 945, 1, 0), &out[4..])?;
-    check(
-        c,
+    c.check(
         "PKW read 945[1] (fault code): 12",
         pd_reply(&r) == Some((response::ARRAY_WORD, 12)),
     );
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
-    check(
-        c,
+    c.check(
         format!("the diagnosis shows the drive fault ({diag:02X?})"),
         diag.get(1)
             .is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0),
@@ -487,8 +452,8 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
     let acknowledged = wait(sim, 50_000, |i, d| {
         i[4] & pds::TRIPPED == 0 && d.fault().is_none()
     })?;
-    check(c, "fault acknowledge (bit 7): fault cleared", acknowledged);
-    Ok(())
+    c.check("fault acknowledge (bit 7): fault cleared", acknowledged);
+    Ok(Vec::new())
 }
 
 /// The drive's fieldbus group 51 (seed 004, table 5) in the PROFIdrive profile, PPO2: what the
@@ -496,13 +461,17 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result
 /// REFRESH and not before, a 916 write that lands in the group, a node address the switch
 /// overrules, and, with the switch at 0, a node address that moves the adapter without a
 /// power cycle.
-pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()> {
+pub fn fieldbus_group<F: Firmware>(
+    sim: &mut CoSim<F>,
+    c: &mut Checks,
+    _: Baud,
+) -> io::Result<Report> {
     let prm = UserPrm {
         operation: OperationMode::Profidrive,
         ..UserPrm::DEFAULT
     };
     let ok = start(sim, setup(Ppo::Ppo2, prm))?;
-    check(c, "PPO2, PROFIdrive profile: data exchange", ok);
+    c.check("PPO2, PROFIdrive profile: data exchange", ok);
     let mut out = vec![0, 0, 0, 0, pd::READY, 0x2000, 0, 0, 0, 0];
     put(sim, &out);
     let group = |d: &DriveSim, i: u8| d.read_register(fieldbus::register(i)).unwrap_or(u16::MAX);
@@ -510,8 +479,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
         [1, 2, 3, 4, 21].map(|i| group(d, i)) == [fieldbus::MODULE_TYPE_PROFIBUS_DP, 8, 1500, 2, 0]
     })?;
     let d = sim.drive_now();
-    check(
-        c,
+    c.check(
         format!(
             "51.01-51.04 show PROFIBUS DP, address 8, 1500 kbit/s, PPO2 (drive holds {:?})",
             [1, 2, 3, 4].map(|i| group(d, i))
@@ -521,8 +489,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     let refused = sim
         .drive_now()
         .set_at_panel(fieldbus::register(fb::PPO_TYPE), 5);
-    check(
-        c,
+    c.check(
         "51.04 is read-only at the drive's panel",
         refused == Err(profidrive::drive::DriveError::AccessRestricted),
     );
@@ -536,12 +503,11 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
             sim.drive_now()
                 .set_at_panel(fieldbus::register(fb::PZD3_OUT + 1), 2104)
         });
-    check(c, "panel: 51.05 = 113, 51.06 = 2104", panel.is_ok());
+    c.check("panel: 51.05 = 113, 51.06 = 2104", panel.is_ok());
     out[6] = 30;
     put(sim, &out);
     sim.run_for_us(100_000)?;
-    check(
-        c,
+    c.check(
         "not in force before the refresh: F0.13 unchanged",
         sim.drive_now().read_register(ACCEL_TIME) == accel_before,
     );
@@ -552,8 +518,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     let refreshed = wait(sim, 1_000_000, |_, d| {
         d.read_register(ACCEL_TIME) == Ok(30) && group(d, fb::PAR_REFRESH) == fieldbus::DONE
     })?;
-    check(
-        c,
+    c.check(
         format!(
             "51.27 REFRESH: PZD3 out reaches F0.13 and 51.27 is DONE in {} ms (poll {} ms)",
             (sim.now_us() - t0) / 1000,
@@ -563,8 +528,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     );
     let r915 = pkw(sim, pd_request(rq::READ_ARRAY, 915, 3, 0), &out[4..])?;
     let r916 = pkw(sim, pd_request(rq::READ_ARRAY, 916, 3, 0), &out[4..])?;
-    check(
-        c,
+    c.check(
         "915[3] = 113 and 916[3] = 2104, as the drive set them",
         pd_reply(&r915) == Some((response::ARRAY_WORD, 113))
             && pd_reply(&r916) == Some((response::ARRAY_WORD, 2104)),
@@ -577,8 +541,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     )?;
     let written = pd_reply(&r) == Some((response::ARRAY_WORD, 2100))
         && wait(sim, 100_000, |_, d| group(d, fb::PZD3_OUT + 3) == 2100)?;
-    check(
-        c,
+    c.check(
         "916[4] = 2100 written by the master: the drive's 51.08 follows",
         written,
     );
@@ -592,8 +555,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
             && i[6] == d.read_register(OUTPUT_CURRENT).unwrap_or(0)
             && i[7] == f
     })?;
-    check(
-        c,
+    c.check(
         "running at 0x2000: PZD3 in is D0.04 (current), PZD4 in is D0.00 (frequency)",
         running,
     );
@@ -608,8 +570,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     let kept = wait(sim, 1_000_000, |_, d| {
         group(d, fb::PAR_REFRESH) == fieldbus::DONE && group(d, fb::NODE_ADDRESS) == 8
     })?;
-    check(
-        c,
+    c.check(
         "switch at 8: 51.02 = 20 and a refresh leave the adapter at 8, and 51.02 shows 8 again",
         kept && sim.bridge.status.address == SWITCH_ADDRESS
             && sim.master.as_mut().is_some_and(|m| m.running()),
@@ -620,8 +581,7 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     sim.bridge.switch = 0;
     sim.power_cycle()?;
     let shown = wait_drive(sim, 100_000, |d| group(d, fb::NODE_ADDRESS) == 126)?;
-    check(
-        c,
+    c.check(
         "switch 0, empty storage: address 126, and 51.02 shows it",
         shown && sim.bridge.status.address == 126,
     );
@@ -635,16 +595,14 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     let moved = wait_drive(sim, 1_000_000, |d| {
         group(d, fb::PAR_REFRESH) == fieldbus::DONE
     })? && sim.bridge.status.address == 30;
-    check(
-        c,
+    c.check(
         format!(
             "51.02 = 30 and a refresh: the adapter answers at 30 after {} ms, no power cycle",
             (sim.now_us() - t0) / 1000
         ),
         moved,
     );
-    check(
-        c,
+    c.check(
         "the storage keeps address 30",
         sim.bridge.nv.is_some_and(|r| r.address == 30),
     );
@@ -655,12 +613,11 @@ pub fn fieldbus_group<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Re
     out[6] = 40;
     put(sim, &out);
     let mapped = ok && wait(sim, 100_000, |_, d| d.read_register(ACCEL_TIME) == Ok(40))?;
-    check(
-        c,
+    c.check(
         "data exchange at 30; the drive's PZD3 mapping read at power-up (PZD3 out -> F0.13)",
         mapped,
     );
-    Ok(())
+    Ok(Vec::new())
 }
 
 /// Runs until `done(drive)` holds (checked every millisecond), at most `limit_us`.
@@ -707,7 +664,11 @@ fn plc_stop<F: Firmware>(sim: &mut CoSim<F>, setup: &MasterSetup) -> io::Result<
 
 /// Each fail-safe mode (seed 004, extended Prm_Data byte 8), on a PLC stop (Global_Control
 /// Clear) and on a communication loss (the DP watchdog): what the drive is told.
-pub fn fail_safe_modes<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<()> {
+pub fn fail_safe_modes<F: Firmware>(
+    sim: &mut CoSim<F>,
+    c: &mut Checks,
+    _: Baud,
+) -> io::Result<Report> {
     let fail_safe_pzd = {
         let mut pzd = [0u16; 10];
         pzd[0] = START;
@@ -732,8 +693,7 @@ pub fn fail_safe_modes<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::R
                 && wait(sim, 100_000, |_, d| {
                     d.control_word() == START && d.read_register(SET_FREQUENCY) == Ok(3000)
                 })?;
-            check(
-                c,
+            c.check(
                 format!("{mode:?}, {cause}: the drive runs at 30.00 Hz first"),
                 running,
             );
@@ -757,25 +717,24 @@ pub fn fail_safe_modes<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::R
                     cw == START && f == 1234,
                 ),
             };
-            check(
-                c,
+            c.check(
                 format!("{mode:?}, {cause}: the drive gets {want} (CW {cw:04X}, F0.29 {f})"),
                 ok,
             );
         }
     }
-    Ok(())
+    Ok(Vec::new())
 }
 
 /// Adapter latency per PPO at 1.5 Mbit/s, in simulated time: from a PZD output arriving at
 /// the adapter (the end of the Data_Exchange request that first carries it) to the drive
 /// applying it; and from a drive status change to the end of the first Data_Exchange
 /// response that carries it. Each figure is the worst of 20 changes at varying phases.
-pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Vec<String>> {
+pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::Result<Report> {
     let mut report = Vec::new();
     for ppo in [Ppo::Ppo1, Ppo::Ppo2, Ppo::Ppo3, Ppo::Ppo4, Ppo::Ppo5] {
         let ok = start(sim, setup(ppo, UserPrm::DEFAULT))?;
-        check(c, format!("PPO{}: data exchange", ppo.number()), ok);
+        c.check(format!("PPO{}: data exchange", ppo.number()), ok);
         let pkw_words = if ppo.has_pkw() { 4 } else { 0 };
         let pzd_words = ppo.pzd_words();
         let mut out = vec![0u16; pkw_words + pzd_words];
@@ -804,8 +763,7 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
                 .map(|a| a.at_us);
             match (arrived, applied) {
                 (Some(a), Some(b)) if b >= a => to_drive.push(b - a),
-                _ => check(
-                    c,
+                _ => c.check(
                     format!("PPO{}: output {value} traced to the drive", ppo.number()),
                     false,
                 ),
@@ -841,8 +799,7 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
             }
             match seen {
                 Some(t) => to_master.push(t - changed_at),
-                None => check(
-                    c,
+                None => c.check(
                     format!("PPO{}: status change traced to the master", ppo.number()),
                     false,
                 ),
@@ -872,8 +829,7 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks) -> io::Result<Ve
             SEED_000_LATENCY[ppo.number() as usize - 1].0,
             SEED_000_LATENCY[ppo.number() as usize - 1].1,
         ));
-        check(
-            c,
+        c.check(
             format!("PPO{}: every change traced both ways", ppo.number()),
             to_drive.len() == 20 && to_master.len() == 20,
         );

@@ -234,110 +234,117 @@ impl Default for Parameters {
     }
 }
 
-/// Where a parameter lives and how it may be accessed.
-fn rw(value: &mut u16) -> Slot<'_> {
-    Slot::Word {
-        value,
-        writable: true,
-    }
-}
-
-fn ro(value: &mut u16) -> Slot<'_> {
-    Slot::Word {
-        value,
-        writable: false,
-    }
-}
-
+/// Where a parameter's value lives: a word, an array of words, or octets (read only).
 enum Slot<'a> {
-    Word {
-        value: &'a mut u16,
-        writable: bool,
-    },
-    Array {
-        values: &'a mut [u16],
-        writable: bool,
-    },
+    Word(&'a mut u16),
+    Array(&'a mut [u16]),
     Octets(&'a [u8]),
 }
 
-impl Parameters {
-    fn slot(&mut self, pnu: u16) -> Option<Slot<'_>> {
-        Some(match pnu {
-            915 => Slot::Array {
-                values: &mut self.pzd_out,
-                writable: true,
-            },
-            916 => Slot::Array {
-                values: &mut self.pzd_in,
-                writable: true,
-            },
-            918 => rw(&mut self.node_address),
-            919 => Slot::Octets(&self.system_number),
-            927 => rw(&mut self.pkw_rights),
-            928 => rw(&mut self.pzd_rights),
-            929 => return None, // answered by the caller: the PPO type in use
-            930 => rw(&mut self.operating_mode),
-            933..=937 => rw(&mut self.control_bit_selectors[usize::from(pnu - 933)]),
-            939..=943 => rw(&mut self.status_bit_selectors[usize::from(pnu - 939)]),
-            945 => Slot::Array {
-                values: &mut self.fault_codes,
-                writable: false,
-            },
-            947 => Slot::Array {
-                values: &mut self.fault_numbers,
-                writable: false,
-            },
-            948 => Slot::Array {
-                values: &mut self.fault_times,
-                writable: false,
-            },
-            952 => rw(&mut self.fault_count),
-            953..=960 => ro(&mut self.alarms[usize::from(pnu - 953)]),
-            961 => Slot::Octets(&self.hardware),
-            963 => ro(&mut self.baud_code),
-            964 => ro(&mut self.ident_number),
-            965 => Slot::Octets(&self.profile_number),
-            967 => ro(&mut self.control_word),
-            968 => ro(&mut self.status_word),
-            970 => rw(&mut self.load_record),
-            971 => rw(&mut self.save_record),
-            972 => rw(&mut self.reset),
-            _ => return None,
-        })
-    }
+/// Whether the master may write a parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Rights {
+    Read,
+    ReadWrite,
+}
 
-    /// Checks a written value; `Err` is the error number.
-    fn check_write(&self, pnu: u16, index: u8, value: u16) -> Result<(), u16> {
-        match pnu {
-            // A user-defined control bit can be given to one control-word bit only.
-            933..=937
-                if value != 0
-                    && self
-                        .control_bit_selectors
-                        .iter()
-                        .enumerate()
-                        .any(|(i, v)| *v == value && i != usize::from(pnu - 933)) =>
-            {
-                Err(error::CONTROL_BIT_TAKEN)
-            }
-            915 | 916 => match index {
-                // PZD1 and PZD2 are fixed: CW/SW and REF/ACT.
-                1 | 2 => Err(error::NOT_MAPPABLE_TO_PZD),
-                _ => pzd_target(value).map(|_| ()),
-            },
-            927 | 928 if value > 1 => Err(error::OUT_OF_RANGE),
-            930 if value == 0x8001 => Err(error::NO_TORQUE_MODE),
-            930 if value != 1 => Err(error::OUT_OF_RANGE),
-            918 if value > u16::from(dp_consts::MAX_STATION_ADDRESS) => Err(error::OUT_OF_RANGE),
-            933..=937 if value > 5 => Err(error::OUT_OF_RANGE),
-            939..=943 if value > 3 => Err(error::OUT_OF_RANGE),
-            952 if value != 0 => Err(error::OUT_OF_RANGE),
-            970..=972 if value > 1 => Err(error::OUT_OF_RANGE),
-            _ => Ok(()),
+/// A written value's check: `Err` is the error number. `at` is the number's offset in its row
+/// (933 is offset 0 of 933-937), `index` the request's sub-index.
+type Check = fn(p: &Parameters, at: usize, index: u8, value: u16) -> Result<(), u16>;
+
+/// One row of the table: a parameter number (or a run of them), where its value lives, whether
+/// the master may write it, and the check a write must pass.
+struct Row {
+    first: u16,
+    last: u16,
+    slot: for<'a> fn(&'a mut Parameters, usize) -> Slot<'a>,
+    rights: Rights,
+    check: Check,
+}
+
+fn any_value(_: &Parameters, _: usize, _: u8, _: u16) -> Result<(), u16> {
+    Ok(())
+}
+
+fn up_to(max: u16) -> impl Fn(u16) -> Result<(), u16> {
+    move |value| {
+        if value > max {
+            Err(error::OUT_OF_RANGE)
+        } else {
+            Ok(())
         }
     }
+}
 
+/// 915/916: PZD1 and PZD2 are fixed (CW/SW, REF/ACT); PZD3-10 a mappable drive parameter.
+fn pzd_mapping(_: &Parameters, _: usize, index: u8, value: u16) -> Result<(), u16> {
+    match index {
+        1 | 2 => Err(error::NOT_MAPPABLE_TO_PZD),
+        _ => pzd_target(value).map(|_| ()),
+    }
+}
+
+/// 933-937: a user-defined control bit can be given to one control-word bit only.
+fn control_bit(p: &Parameters, at: usize, _: u8, value: u16) -> Result<(), u16> {
+    let taken = p
+        .control_bit_selectors
+        .iter()
+        .enumerate()
+        .any(|(i, v)| *v == value && i != at);
+    if value != 0 && taken {
+        return Err(error::CONTROL_BIT_TAKEN);
+    }
+    up_to(5)(value)
+}
+
+/// 930: speed control (1); torque (8001h) is not a mode of this drive.
+fn operating_mode(_: &Parameters, _: usize, _: u8, value: u16) -> Result<(), u16> {
+    match value {
+        1 => Ok(()),
+        0x8001 => Err(error::NO_TORQUE_MODE),
+        _ => Err(error::OUT_OF_RANGE),
+    }
+}
+
+/// The adapter's PROFIdrive parameters (seed 004's table 22), one row each. 929 is answered by
+/// the caller (the PPO type in use), drive parameters (below 900) by the drive.
+#[rustfmt::skip]
+const TABLE: &[Row] = &[
+    Row { first: 915, last: 915, slot: |p, _| Slot::Array(&mut p.pzd_out), rights: Rights::ReadWrite, check: pzd_mapping },
+    Row { first: 916, last: 916, slot: |p, _| Slot::Array(&mut p.pzd_in), rights: Rights::ReadWrite, check: pzd_mapping },
+    Row { first: 918, last: 918, slot: |p, _| Slot::Word(&mut p.node_address), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(u16::from(dp_consts::MAX_STATION_ADDRESS))(v) },
+    Row { first: 919, last: 919, slot: |p, _| Slot::Octets(&p.system_number), rights: Rights::Read, check: any_value },
+    Row { first: 927, last: 927, slot: |p, _| Slot::Word(&mut p.pkw_rights), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
+    Row { first: 928, last: 928, slot: |p, _| Slot::Word(&mut p.pzd_rights), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
+    Row { first: 930, last: 930, slot: |p, _| Slot::Word(&mut p.operating_mode), rights: Rights::ReadWrite, check: operating_mode },
+    Row { first: 933, last: 937, slot: |p, at| Slot::Word(&mut p.control_bit_selectors[at]), rights: Rights::ReadWrite, check: control_bit },
+    Row { first: 939, last: 943, slot: |p, at| Slot::Word(&mut p.status_bit_selectors[at]), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(3)(v) },
+    Row { first: 945, last: 945, slot: |p, _| Slot::Array(&mut p.fault_codes), rights: Rights::Read, check: any_value },
+    Row { first: 947, last: 947, slot: |p, _| Slot::Array(&mut p.fault_numbers), rights: Rights::Read, check: any_value },
+    Row { first: 948, last: 948, slot: |p, _| Slot::Array(&mut p.fault_times), rights: Rights::Read, check: any_value },
+    // 952: the fault count; only 0 may be written (it clears the count).
+    Row { first: 952, last: 952, slot: |p, _| Slot::Word(&mut p.fault_count), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(0)(v) },
+    Row { first: 953, last: 960, slot: |p, at| Slot::Word(&mut p.alarms[at]), rights: Rights::Read, check: any_value },
+    Row { first: 961, last: 961, slot: |p, _| Slot::Octets(&p.hardware), rights: Rights::Read, check: any_value },
+    Row { first: 963, last: 963, slot: |p, _| Slot::Word(&mut p.baud_code), rights: Rights::Read, check: any_value },
+    Row { first: 964, last: 964, slot: |p, _| Slot::Word(&mut p.ident_number), rights: Rights::Read, check: any_value },
+    Row { first: 965, last: 965, slot: |p, _| Slot::Octets(&p.profile_number), rights: Rights::Read, check: any_value },
+    Row { first: 967, last: 967, slot: |p, _| Slot::Word(&mut p.control_word), rights: Rights::Read, check: any_value },
+    Row { first: 968, last: 968, slot: |p, _| Slot::Word(&mut p.status_word), rights: Rights::Read, check: any_value },
+    // 970-972: load defaults, save, restart; each acts on a 0 -> 1 change.
+    Row { first: 970, last: 970, slot: |p, _| Slot::Word(&mut p.load_record), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
+    Row { first: 971, last: 971, slot: |p, _| Slot::Word(&mut p.save_record), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
+    Row { first: 972, last: 972, slot: |p, _| Slot::Word(&mut p.reset), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
+];
+
+fn row(pnu: u16) -> Option<(&'static Row, usize)> {
+    TABLE
+        .iter()
+        .find(|r| (r.first..=r.last).contains(&pnu))
+        .map(|r| (r, usize::from(pnu - r.first)))
+}
+
+impl Parameters {
     /// What one request needs: the adapter's own parameters are executed here and answered
     /// at once; a drive parameter is a drive access, answered by [`Parameters::drive_reply`]
     /// once the drive answered (and planned again, without effect, until then).
@@ -391,15 +398,15 @@ impl Parameters {
         use self::request as rq;
         let err = |e: u16| request.reply(response::ERROR, u32::from(e));
         let label = request.label;
-        // The value checks look at other parameters, so they run before the slot is borrowed.
-        let value_check = self.check_write(request.pnu, request.index, request.value as u16);
-        let Some(slot) = self.slot(request.pnu) else {
+        let Some((row, at)) = row(request.pnu) else {
             return err(error::ILLEGAL_PNU);
         };
+        // The check looks at other parameters, so it runs before the slot is borrowed.
+        let value_check = (row.check)(self, at, request.index, request.value as u16);
+        let writable = row.rights == Rights::ReadWrite;
+        let slot = (row.slot)(self, at);
         match (label, slot) {
-            (rq::READ, Slot::Word { value, .. }) => {
-                request.reply(response::WORD, u32::from(*value))
-            }
+            (rq::READ, Slot::Word(value)) => request.reply(response::WORD, u32::from(*value)),
             (rq::READ, Slot::Octets(octets)) => {
                 let mut v = [0u8; 4];
                 v[4 - octets.len()..].copy_from_slice(octets);
@@ -412,16 +419,16 @@ impl Parameters {
                     u32::from_be_bytes(v),
                 )
             }
-            (rq::READ_ARRAY, Slot::Array { values, .. }) => {
+            (rq::READ_ARRAY, Slot::Array(values)) => {
                 match values.get(usize::from(request.index).wrapping_sub(1)) {
                     Some(v) => request.reply(response::ARRAY_WORD, u32::from(*v)),
                     None => err(error::BAD_SUBINDEX),
                 }
             }
-            (rq::ARRAY_COUNT, Slot::Array { values, .. }) => {
+            (rq::ARRAY_COUNT, Slot::Array(values)) => {
                 request.reply(response::ARRAY_COUNT, values.len() as u32)
             }
-            (rq::WRITE_WORD, Slot::Word { value, writable }) => {
+            (rq::WRITE_WORD, Slot::Word(value)) => {
                 if !writable {
                     return err(error::READ_ONLY);
                 }
@@ -444,7 +451,7 @@ impl Parameters {
                 }
                 request.reply(response::WORD, u32::from(new))
             }
-            (rq::WRITE_ARRAY_WORD, Slot::Array { values, writable }) => {
+            (rq::WRITE_ARRAY_WORD, Slot::Array(values)) => {
                 let i = usize::from(request.index).wrapping_sub(1);
                 if i >= values.len() {
                     return err(error::BAD_SUBINDEX);
@@ -468,7 +475,7 @@ impl Parameters {
             (rq::READ_ARRAY | rq::WRITE_ARRAY_WORD | rq::ARRAY_COUNT, _) => {
                 err(error::NOT_AN_ARRAY)
             }
-            (rq::READ | rq::WRITE_WORD, Slot::Array { .. }) => err(error::WRONG_DATA_TYPE),
+            (rq::READ | rq::WRITE_WORD, Slot::Array(_)) => err(error::WRONG_DATA_TYPE),
             (rq::WRITE_WORD, Slot::Octets(_)) => err(error::READ_ONLY),
             _ => err(error::UNSUPPORTED_REQUEST),
         }
@@ -545,6 +552,27 @@ mod tests {
                     .poll(drive)
                     .expect("an immediate drive answers at once");
                 Parameters::drive_reply(&request, result)
+            }
+        }
+    }
+
+    #[test]
+    fn the_parameter_table_has_one_row_per_number_and_each_answers() {
+        for w in TABLE.windows(2) {
+            assert!(
+                w[0].first <= w[0].last && w[0].last < w[1].first,
+                "{}",
+                w[1].first
+            );
+        }
+        let mut p = Parameters::default();
+        let mut drive = MockDrive::default();
+        for row in TABLE {
+            for pnu in row.first..=row.last {
+                let word = run(&mut p, &mut drive, request::READ, pnu, 0, 0);
+                let array = run(&mut p, &mut drive, request::READ_ARRAY, pnu, 1, 0);
+                let answered = |f: &Frame| f.label != response::ERROR || f.value != 0;
+                assert!(answered(&word) || answered(&array), "{pnu}");
             }
         }
     }

@@ -107,6 +107,11 @@ pub struct Bridge<F: Firmware> {
     mcu_free_ns: u64,
     /// The wake-up time a Timer event was sent for.
     timer_sent_for: Option<u64>,
+    /// Wall-clock mode (`qemu-run` on a port): the firmware in QEMU cannot run ahead of the
+    /// wall clock, so the MCU starts nothing before the time of the poll that runs it.
+    pub realtime: bool,
+    /// The time of the current poll, in wall-clock mode.
+    floor_ns: u64,
 }
 
 /// The status before the firmware's first.
@@ -150,6 +155,8 @@ impl<F: Firmware> Bridge<F> {
             from_mcu_free_ns: 0,
             mcu_free_ns: 0,
             timer_sent_for: None,
+            realtime: false,
+            floor_ns: 0,
         }
     }
 
@@ -264,6 +271,9 @@ impl<F: Firmware> Bridge<F> {
 
     /// Everything due at `now_ns`, in time order.
     pub fn poll(&mut self, now_ns: u64) -> io::Result<()> {
+        if self.realtime {
+            self.floor_ns = self.floor_ns.max(now_ns);
+        }
         while let Some(t) = self.next_ns().filter(|t| *t <= now_ns) {
             self.step_at(t)?;
         }
@@ -302,16 +312,18 @@ impl<F: Firmware> Bridge<F> {
         match (link_ready, drive_ready) {
             (Some(l), d) if l <= t && d.is_none_or(|d| l <= d) => {
                 let e = self.to_mcu.pop_front().expect("checked");
-                self.handle_event(l, e)
+                self.handle_event(l.max(self.floor_ns), e)
             }
-            (_, Some(d)) if d <= t => self.handle_drive_answer(d),
+            (_, Some(d)) if d <= t => self.handle_drive_answer(d.max(self.floor_ns)),
             _ => Ok(()),
         }
     }
 
     /// The MCU handles `e` from `start_ns`.
     fn handle_event(&mut self, start_ns: u64, e: InFlight) -> io::Result<()> {
-        let now_us = e.at_ns / 1000;
+        // In wall-clock mode the MCU's time is when it runs: a firmware that is told an
+        // earlier time would time its drive link against answers that come later.
+        let now_us = if self.realtime { start_ns } else { e.at_ns } / 1000;
         let latency = start_ns - e.at_ns;
         self.figures.worst_event_latency_ns = self.figures.worst_event_latency_ns.max(latency);
         let handled = match &e.event {
@@ -351,10 +363,15 @@ impl<F: Firmware> Bridge<F> {
             return Ok(());
         };
         self.firmware.drive_send(&bytes)?;
+        let now_us = if self.realtime {
+            at_us.max(start_ns / 1000)
+        } else {
+            at_us
+        };
         let handled = self
             .firmware
             .exchange(&ToAdapter::Sim(SimToAdapter::DriveBytes {
-                now_us: at_us,
+                now_us,
                 drive_rx_bytes: self.drive.delivered,
             }))?;
         self.take(start_ns, &handled)?;

@@ -76,6 +76,7 @@ impl<F: Firmware> SerialAdapter<F> {
     /// first buffers are in the transceiver.
     pub fn new(firmware: F, switch: u8, baud: dp_consts::Baud) -> io::Result<Self> {
         let mut bridge = Bridge::new(firmware, CLOCK_HZ, switch, None);
+        bridge.realtime = true;
         bridge.boot(0);
         while !bridge.idle() {
             let Some(next) = bridge.next_ns() else { break };

@@ -132,7 +132,9 @@ fn serial_port(
             .open()
             .with_context(|| format!("opening {port}"))?
     };
-    port.set_timeout(Duration::from_millis(1))?;
+    // Short: the loop also runs the firmware and the drive line, whose answers are due within
+    // a few hundred microseconds.
+    port.set_timeout(Duration::from_micros(200))?;
     println!("qemu-run: telegrams are delimited by start delimiter and length; Ctrl-C ends");
     let start = Instant::now();
     let mut last_print = Instant::now();

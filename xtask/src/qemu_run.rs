@@ -8,7 +8,11 @@
 //!   converter. On a port there is no bit timing: telegrams are delimited by start delimiter
 //!   and length (`hal_sim::serial`); `--baud` sets the port's rate (default 19200).
 //! - `--switch N`: the address switch (default 8); `--seconds N`: stop after N seconds of
-//!   wall time (default: until Ctrl-C).
+//!   wall time (default: until Ctrl-C or SIGTERM, which stop QEMU and print a summary).
+//!
+//! The status line rewrites itself on a terminal and prints a line each time otherwise (a log
+//! file holds lines). The pty's name is also linked from `target/qemu-run.pty`, a name that
+//! stays the same from run to run.
 
 use crate::qemu_test::{build, ensure_qemu, ensure_target, IMAGES};
 use crate::{check_flags, flag_value};
@@ -19,8 +23,39 @@ use hal_sim::cosim::{CoSim, MasterSetup};
 use hal_sim::firmware::Qemu;
 use hal_sim::serial::SerialAdapter;
 use serialport::SerialPort;
-use std::io::{Read, Write};
+use std::io::{IsTerminal, Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+/// Ctrl-C or SIGTERM was received: the loop ends, QEMU is stopped (on drop), a summary printed.
+fn stop_flag() -> Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))
+        .context("installing the Ctrl-C / SIGTERM handler")?;
+    Ok(stop)
+}
+
+/// One status line: rewritten in place on a terminal, a line of its own otherwise.
+fn status(line: &str) -> Result<()> {
+    let mut out = std::io::stdout();
+    if out.is_terminal() {
+        write!(out, "\r{line}   ")?;
+    } else {
+        writeln!(out, "{line}")?;
+    }
+    out.flush()?;
+    Ok(())
+}
+
+/// QEMU must still run: if it died, say so instead of showing a frozen status.
+fn check_alive(firmware: &mut Qemu) -> Result<()> {
+    if let Some(exit) = firmware.exit_status()? {
+        bail!("QEMU exited ({exit}): the firmware stopped; its log is in the run's defmt stream");
+    }
+    Ok(())
+}
 
 pub fn run(args: &[String]) -> Result<()> {
     check_flags(args, &[], &["--port", "--baud", "--switch", "--seconds"])?;
@@ -41,6 +76,7 @@ pub fn run(args: &[String]) -> Result<()> {
         .context("--baud")?;
     ensure_target()?;
     let qemu = ensure_qemu()?;
+    println!("qemu-run: building the firmware (release, lm3s6965evb)...");
     let elf = build(&IMAGES[0])?;
     let firmware = Qemu::start(&qemu, &elf).context("starting QEMU")?;
     let stop_at = seconds.map(Duration::from_secs_f64);
@@ -59,7 +95,10 @@ fn drive_line(drive: &DriveSim, link_error: u8) -> String {
         if drive.reverse() { " rev" } else { "" },
         match link_error {
             0 => "ok".to_string(),
-            e => format!("error 0x{e:02X}"),
+            0x21 => "error 0x21 (noise on the drive line)".to_string(),
+            0x22 => "error 0x22 (the drive does not answer)".to_string(),
+            0x23 => "error 0x23 (CRC error from the drive)".to_string(),
+            e => format!("error 0x{e:02X} (the drive refused)"),
         }
     )
 }
@@ -69,6 +108,7 @@ fn simulated_bus(firmware: Qemu, switch: u8, stop_at: Option<Duration>) -> Resul
     let address = sim.bridge.status.address;
     sim.start_master(MasterSetup::new(Baud::B1500000, address));
     println!("qemu-run: the firmware in QEMU, a profirust master at 1.5M on the simulated bus, the drive simulator; Ctrl-C ends");
+    let stop = stop_flag()?;
     let start = Instant::now();
     let mut last_print = Instant::now();
     loop {
@@ -86,14 +126,19 @@ fn simulated_bus(firmware: Qemu, switch: u8, stop_at: Option<Duration>) -> Resul
                 sim.bridge.status.drive_link_error,
             );
             let drive = drive_line(sim.drive_now(), err);
-            print!(
-                "\r[{:>7.1} s] {state:?} addr {addr} DX cycles {cycles} {drive}   ",
+            status(&format!(
+                "[{:>7.1} s] {state:?} addr {addr} DX cycles {cycles} {drive}",
                 sim_time.as_secs_f64()
-            );
-            std::io::stdout().flush()?;
+            ))?;
+            check_alive(&mut sim.bridge.firmware)?;
         }
-        if stop_at.is_some_and(|s| start.elapsed() >= s) {
-            println!();
+        if stop.load(Ordering::SeqCst) || stop_at.is_some_and(|s| start.elapsed() >= s) {
+            let cycles = sim.master.as_ref().map_or(0, |m| m.cycles);
+            println!(
+                "\nqemu-run: {:.1} s of bus time, {cycles} data exchange cycles, state {:?}",
+                sim_time.as_secs_f64(),
+                sim.bridge.status.state
+            );
             return Ok(());
         }
     }
@@ -116,9 +161,17 @@ fn serial_port(
     let mut port: Box<dyn SerialPort> = if port == "pty" {
         let (master, slave) = serialport::TTYPort::pair().context("creating a pseudo-terminal")?;
         let name = slave.name().unwrap_or_default();
+        let link = crate::project_root().join("target/qemu-run.pty");
+        let _ = std::fs::remove_file(&link);
+        let linked = std::os::unix::fs::symlink(&name, &link).is_ok();
         println!(
-            "qemu-run: the adapter (address {}) is on {name}: point the DP master at it",
-            adapter.bridge.status.address
+            "qemu-run: the adapter (address {}) is on {name}{}: point the DP master at it",
+            adapter.bridge.status.address,
+            if linked {
+                format!(" (also {})", link.display())
+            } else {
+                String::new()
+            }
         );
         _pty_other_end = Some(slave);
         Box::new(master)
@@ -136,7 +189,10 @@ fn serial_port(
     // a few hundred microseconds.
     port.set_timeout(Duration::from_micros(200))?;
     println!("qemu-run: telegrams are delimited by start delimiter and length; Ctrl-C ends");
+    let stop = stop_flag()?;
     let start = Instant::now();
+    let mut link_errors = 0u64;
+    let mut last_link_error = 0u8;
     let mut last_print = Instant::now();
     let mut buf = [0u8; 512];
     loop {
@@ -150,6 +206,8 @@ fn serial_port(
             }
             Ok(_) => {}
             Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+            // A signal (Ctrl-C, SIGTERM) interrupted the read: the stop flag says what next.
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             Err(e) => return Err(e).context("reading the port"),
         }
         adapter.poll(start.elapsed().as_micros() as u64)?;
@@ -158,19 +216,31 @@ fn serial_port(
             let now = start.elapsed().as_micros() as u64;
             adapter.bridge.drive.advance_to(now);
             let s = adapter.bridge.status;
-            print!(
-                "\r[{:>7.1} s] {:?} addr {} telegrams {} responses {} {}   ",
+            if s.drive_link_error != 0 && s.drive_link_error != last_link_error {
+                link_errors += 1;
+            }
+            last_link_error = s.drive_link_error;
+            status(&format!(
+                "[{:>7.1} s] {:?} addr {} telegrams {} responses {} {}",
                 start.elapsed().as_secs_f64(),
                 s.state,
                 s.address,
                 adapter.telegrams,
                 adapter.responses,
                 drive_line(&adapter.bridge.drive.drive, s.drive_link_error)
-            );
-            std::io::stdout().flush()?;
+            ))?;
+            check_alive(&mut adapter.bridge.firmware)?;
         }
-        if stop_at.is_some_and(|s| start.elapsed() >= s) {
-            println!();
+        if stop.load(Ordering::SeqCst) || stop_at.is_some_and(|s| start.elapsed() >= s) {
+            println!(
+                "\nqemu-run: {:.1} s, {} telegrams, {} responses, {} bytes skipped, drive link errors seen {}, state {:?}",
+                start.elapsed().as_secs_f64(),
+                adapter.telegrams,
+                adapter.responses,
+                adapter.skipped_bytes,
+                link_errors,
+                adapter.bridge.status.state
+            );
             return Ok(());
         }
     }

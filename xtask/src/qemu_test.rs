@@ -388,7 +388,9 @@ pub(crate) fn ensure_qemu() -> Result<PathBuf> {
     if uid.as_deref().ok() != Some("0") {
         bail!("qemu-system-arm is not installed; install it with `sudo apt-get install -y qemu-system-arm`");
     }
-    println!("installing qemu-system-arm: apt-get install -y qemu-system-arm");
+    println!(
+        "installing qemu-system-arm: apt-get install -y --no-install-recommends qemu-system-arm"
+    );
     let apt = |args: &[&str]| -> Result<()> {
         let status = Command::new("apt-get")
             .args(args)
@@ -401,7 +403,13 @@ pub(crate) fn ensure_qemu() -> Result<PathBuf> {
         Ok(())
     };
     apt(&["update", "-q"])?;
-    apt(&["install", "-y", "-q", "qemu-system-arm"])?;
+    apt(&[
+        "install",
+        "-y",
+        "-q",
+        "--no-install-recommends",
+        "qemu-system-arm",
+    ])?;
     find_in_path("qemu-system-arm")
         .ok_or_else(|| anyhow!("qemu-system-arm still not on PATH after apt-get"))
 }

@@ -61,6 +61,9 @@ pub struct DriveLine {
     /// Each in block the drive answered whose words differ from the one before, at the time
     /// the answer was complete at the adapter.
     pub answered: Vec<Applied>,
+    /// The next answer comes this much later than the drive would send it (a scenario's
+    /// late answer: one that arrives after the adapter's timeout).
+    pub late_once_us: Option<u64>,
 }
 
 impl DriveLine {
@@ -100,7 +103,7 @@ impl DriveLine {
         }
         if let Some(answer) = answer {
             self.answers += 1;
-            let done = at + frame_us(answer.len());
+            let done = at + frame_us(answer.len()) + self.late_once_us.take().unwrap_or(0);
             // The in block comes with an exchange (17h) or a cycle that only reads (03h there).
             let reads_in_block = request.get(1) == Some(&drive_link::READ_WRITE_MULTIPLE)
                 || (request.get(1) == Some(&0x03)

@@ -297,6 +297,18 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
         ),
         back && (leds.tx, leds.rx, leds.run) == (Led::Blink4Hz, Led::Blink4Hz, Led::Flash1Hz),
     );
+    // One answer after the adapter's 2 ms timeout: it costs that transaction (retried), and
+    // the link is back on the next one; it is not read as the start of the next answer.
+    sim.bridge.drive.late_once_us = Some(2_500);
+    sim.run_for_us(50_000)?;
+    let i = inputs(sim);
+    c.check(
+        format!(
+            "one late drive answer: no lasting C0xx (PZD1 {:04X}, link error {:02X})",
+            i[4], sim.bridge.status.drive_link_error
+        ),
+        i[4] & 0xFF00 != 0xC000 && sim.bridge.status.drive_link_error == 0,
+    );
 
     // Another mapping through the user parameters: PZD2 in from D0.04 (output current).
     let mut prm = UserPrm::DEFAULT;

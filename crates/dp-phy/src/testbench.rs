@@ -195,8 +195,8 @@ impl Kind {
 }
 
 /// A well-formed telegram of `kind` with random addresses, function code and data (SD2: `len`
-/// data bytes, 1..=246). The FCS is computed here rather than by the `fdl` crate because the
-/// transceiver model sits below it and must not depend on it.
+/// data bytes, 1..=246). Built byte by byte rather than by the `fdl` crate: the delimiter below
+/// the responder must take whatever the line carries, including what `fdl` would never emit.
 pub fn random_telegram<R: rand::Rng>(rng: &mut R, kind: Kind, len: usize) -> Vec<u8> {
     use dp_consts::{ED, SC, SD1, SD2, SD3, SD4};
     let (da, sa, fc) = (

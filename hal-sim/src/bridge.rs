@@ -363,11 +363,10 @@ impl<F: Firmware> Bridge<F> {
             return Ok(());
         };
         self.firmware.drive_send(&bytes)?;
-        let now_us = if self.realtime {
-            at_us.max(start_ns / 1000)
-        } else {
-            at_us
-        };
+        // The answer's own time, in both modes: the drive line computed it from when the
+        // request went out, so the firmware times its drive link on one consistent clock even
+        // when the host is late to hand the answer over.
+        let now_us = at_us;
         let handled = self
             .firmware
             .exchange(&ToAdapter::Sim(SimToAdapter::DriveBytes {

@@ -15,6 +15,7 @@ mod baud_sweep;
 mod dp_cycle;
 mod gsd;
 mod phy_bench;
+mod pty_check;
 mod qemu_run;
 mod qemu_test;
 

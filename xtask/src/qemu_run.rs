@@ -7,6 +7,9 @@
 //!   opens it. `--port /dev/ttyUSB0` (any device): a real port, e.g. a PLC behind a USB-RS485
 //!   converter. On a port there is no bit timing: telegrams are delimited by start delimiter
 //!   and length (`hal_sim::serial`); `--baud` sets the port's rate (default 19200).
+//! - `--check N` (with `--port pty`): an independent DP master (profirust) on the pty's other
+//!   end for N seconds, with bursts of random bytes between its telegrams; the run fails if
+//!   the slave leaves data exchange once there (`crate::pty_check`).
 //! - `--switch N`: the address switch (default 8); `--seconds N`: stop after N seconds of
 //!   wall time (default: until Ctrl-C or SIGTERM, which stop QEMU and print a summary).
 //!
@@ -58,7 +61,18 @@ fn check_alive(firmware: &mut Qemu) -> Result<()> {
 }
 
 pub fn run(args: &[String]) -> Result<()> {
-    check_flags(args, &[], &["--port", "--baud", "--switch", "--seconds"])?;
+    check_flags(
+        args,
+        &[],
+        &["--port", "--baud", "--switch", "--seconds", "--check"],
+    )?;
+    let check: Option<f64> = flag_value(args, "--check")?
+        .map(str::parse)
+        .transpose()
+        .context("--check takes seconds")?;
+    if check.is_some() && flag_value(args, "--port")? != Some("pty") {
+        bail!("--check runs a master on the pty: use it with --port pty");
+    }
     let switch: u8 = flag_value(args, "--switch")?
         .unwrap_or("8")
         .parse()
@@ -79,10 +93,12 @@ pub fn run(args: &[String]) -> Result<()> {
     println!("qemu-run: building the firmware (release, lm3s6965evb)...");
     let elf = build(&IMAGES[0])?;
     let firmware = Qemu::start(&qemu, &elf).context("starting QEMU")?;
-    let stop_at = seconds.map(Duration::from_secs_f64);
+    let stop_at = seconds
+        .or(check.map(|c| c + 2.0))
+        .map(Duration::from_secs_f64);
     match flag_value(args, "--port")? {
         None => simulated_bus(firmware, switch, stop_at),
-        Some(port) => serial_port(firmware, switch, port, port_baud, stop_at),
+        Some(port) => serial_port(firmware, switch, port, port_baud, stop_at, check),
     }
 }
 
@@ -150,14 +166,16 @@ fn serial_port(
     port: &str,
     baud: u32,
     stop_at: Option<Duration>,
+    check: Option<f64>,
 ) -> Result<()> {
     let dp_baud = Baud::ALL
         .into_iter()
         .find(|b| b.bits_per_second() == baud)
         .unwrap_or(Baud::B19200);
     let mut adapter = SerialAdapter::new(firmware, switch, dp_baud)?;
-    // The pty's other end must stay open while we run.
+    // The pty's other end must stay open while we run (or the check's master holds it).
     let mut _pty_other_end = None;
+    let mut checker = None;
     let mut port: Box<dyn SerialPort> = if port == "pty" {
         let (master, slave) = serialport::TTYPort::pair().context("creating a pseudo-terminal")?;
         let name = slave.name().unwrap_or_default();
@@ -173,7 +191,15 @@ fn serial_port(
                 String::new()
             }
         );
-        _pty_other_end = Some(slave);
+        match check {
+            Some(seconds) => {
+                let address = adapter.bridge.status.address;
+                checker = Some(std::thread::spawn(move || {
+                    crate::pty_check::run(slave, address, seconds)
+                }));
+            }
+            None => _pty_other_end = Some(slave),
+        }
         Box::new(master)
     } else {
         println!(
@@ -208,6 +234,8 @@ fn serial_port(
             Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
             // A signal (Ctrl-C, SIGTERM) interrupted the read: the stop flag says what next.
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            // The check's master closed its end: the summary follows.
+            Err(_) if checker.as_ref().is_some_and(|c| c.is_finished()) => {}
             Err(e) => return Err(e).context("reading the port"),
         }
         adapter.poll(start.elapsed().as_micros() as u64)?;
@@ -231,7 +259,8 @@ fn serial_port(
             ))?;
             check_alive(&mut adapter.bridge.firmware)?;
         }
-        if stop.load(Ordering::SeqCst) || stop_at.is_some_and(|s| start.elapsed() >= s) {
+        let checked = checker.as_ref().is_some_and(|c| c.is_finished());
+        if checked || stop.load(Ordering::SeqCst) || stop_at.is_some_and(|s| start.elapsed() >= s) {
             println!(
                 "\nqemu-run: {:.1} s, {} telegrams, {} responses, {} bytes skipped, drive link errors seen {}, state {:?}",
                 start.elapsed().as_secs_f64(),
@@ -241,6 +270,18 @@ fn serial_port(
                 link_errors,
                 adapter.bridge.status.state
             );
+            if let Some(checker) = checker {
+                let r = checker
+                    .join()
+                    .map_err(|_| anyhow::anyhow!("the check's master panicked"))??;
+                println!(
+                    "qemu-run check: cycles={} left_data_exchange={} bursts={} inputs_followed={}",
+                    r.cycles, r.left_data_exchange, r.bursts, r.inputs_seen_changing
+                );
+                if r.left_data_exchange > 0 || !r.inputs_seen_changing {
+                    bail!("the slave left data exchange, or its inputs never followed the outputs");
+                }
+            }
             return Ok(());
         }
     }

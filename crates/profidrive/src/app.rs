@@ -14,8 +14,10 @@
 //! The next outputs from the master end the fail-safe.
 
 use crate::codes::FunctionCode;
-use crate::drive::{Access, Drive, DriveError, FaultRecord, ParamRequest, PZD1_LINK_ERROR};
-use crate::pd_params::{pzd_target, Frame, Parameters, FAULT_SUBINDICES};
+use crate::drive::{Drive, DriveError, PZD1_LINK_ERROR};
+use crate::faults::FaultBuffer;
+use crate::link_diag::LinkDiagnosis;
+use crate::pd_params::{pzd_target, Frame, Parameters};
 use crate::pkw::{PkwServer, Planned, PKW_BYTES};
 use crate::ppo::{Ppo, MAX_PZD_WORDS};
 use crate::prm::{ControlZeroMode, FailSafeMode, OperationMode, UserPrm};
@@ -38,17 +40,10 @@ pub enum FailSafeCause {
     LeftDataExchange,
 }
 
-/// How long the drive may stay silent before the loss counts as permanent (seed 004's
-/// extended diagnosis: "communication temporarily / permanently lost").
-pub const LINK_LOST_PERMANENTLY_US: u64 = 1_000_000;
-
-/// Seed 004's extended diagnosis: one header byte (its length, 2) and one byte of flags.
-pub const EXT_DIAG_LEN: u8 = 2;
-pub const EXT_DIAG_LINK_LOST_TEMPORARILY: u8 = 0x01;
-pub const EXT_DIAG_LINK_LOST_PERMANENTLY: u8 = 0x02;
-/// The drive reports a fault (its status word's fault bit): the master learns of it from the
-/// diagnosis too, not only from the status word it may not be watching.
-pub const EXT_DIAG_DRIVE_FAULT: u8 = 0x04;
+pub use crate::link_diag::{
+    EXT_DIAG_DRIVE_FAULT, EXT_DIAG_LEN, EXT_DIAG_LINK_LOST_PERMANENTLY,
+    EXT_DIAG_LINK_LOST_TEMPORARILY, LINK_LOST_PERMANENTLY_US,
+};
 
 pub struct ProfidriveApp<D> {
     drive: D,
@@ -63,8 +58,8 @@ pub struct ProfidriveApp<D> {
     fail_safe: Option<FailSafeCause>,
     last_outputs_at: Option<Instant>,
     link_error: Option<DriveError>,
-    link_lost_since: Option<Instant>,
-    ext_diag_flags: u8,
+    /// The extended diagnosis of the drive link and the drive's fault.
+    link_diag: LinkDiagnosis,
     diag_changed: bool,
     /// The PROFIdrive state machine (operation mode PROFIdrive).
     profile: Profile,
@@ -74,12 +69,8 @@ pub struct ProfidriveApp<D> {
     rated_reference: u16,
     /// The PROFIdrive parameters (915 .. 972).
     params: Parameters,
-    /// When each fault of the buffer happened, for 948 (seconds since).
-    fault_at: [Option<Instant>; FAULT_SUBINDICES.len()],
-    /// A drive fault seen at this time and not yet in the fault buffer.
-    fault_record_due: Option<Instant>,
-    /// The read of the drive's fault record for it, under way.
-    fault_read: Option<ParamRequest>,
+    /// The fault buffer's state (945, 947, 948, 952 live in `params`).
+    faults: FaultBuffer,
 }
 
 /// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
@@ -98,16 +89,13 @@ impl<D: Drive> ProfidriveApp<D> {
             fail_safe: Some(FailSafeCause::LeftDataExchange),
             last_outputs_at: None,
             link_error: None,
-            link_lost_since: None,
-            ext_diag_flags: 0,
+            link_diag: LinkDiagnosis::default(),
             diag_changed: false,
             profile: Profile::default(),
             drive_status: 0,
             rated_reference: DEFAULT_RATED_REFERENCE,
             params: Parameters::default(),
-            fault_at: [None; FAULT_SUBINDICES.len()],
-            fault_record_due: None,
-            fault_read: None,
+            faults: FaultBuffer::default(),
         }
     }
 
@@ -194,13 +182,7 @@ impl<D: Drive> ProfidriveApp<D> {
         }
         let apply = self.outputs_to_apply();
         let result = self.exchange_with_drive(now, &apply, words);
-        for (at, sub) in self.fault_at.iter().zip(FAULT_SUBINDICES) {
-            if let Some(at) = at {
-                let seconds = (now.micros() - at.micros()) / 1_000_000;
-                self.params.fault_times[usize::from(sub) - 1] =
-                    seconds.min(u64::from(u16::MAX)) as u16;
-            }
-        }
+        self.faults.update_times(now, &mut self.params);
         self.pzd_applied = apply;
         if let Some(ppo) = self.ppo.filter(|p| p.has_pkw()) {
             match self.prm.operation {
@@ -255,13 +237,10 @@ impl<D: Drive> ProfidriveApp<D> {
             &sources[..words - 1],
         );
         self.drive_status = from_drive[0];
-        if !was_faulted && self.drive_status & status::FAULT != 0 {
-            self.fault_record_due = Some(now);
-        }
-        if let Some(at) = self.fault_record_due {
-            if self.record_fault(at) {
-                self.fault_record_due = None;
-            }
+        let faulted = self.drive_status & status::FAULT != 0;
+        self.faults.observe(now, was_faulted, faulted);
+        if self.faults.service(&mut self.drive, &mut self.params) {
+            self.diag_changed = true;
         }
         if profidrive {
             self.profile.observe(self.drive_status);
@@ -303,63 +282,10 @@ impl<D: Drive> ProfidriveApp<D> {
         (targets, sources)
     }
 
-    /// A new drive fault: into the fault buffer (945 codes, 947 numbers, 948 times, 952 count), the
-    /// newest at sub-index 1 and the older ones moved on by 8 (sub-indices 9, 17, .., 41).
-    /// `false`: the drive has not answered the fault record yet; try again.
-    fn record_fault(&mut self, now: Instant) -> bool {
-        let read = self
-            .fault_read
-            .get_or_insert(ParamRequest::new(Access::Read(FunctionCode(
-                crate::codes::named::FAULT_RECORD,
-            ))));
-        let Some(record) = read.poll(&mut self.drive) else {
-            return false;
-        };
-        self.fault_read = None;
-        let number = match record.map(|r| FaultRecord::from_byte(r as u8)) {
-            Ok(FaultRecord::Fault(n)) => u16::from(n),
-            _ => 0,
-        };
-        let p = &mut self.params;
-        for slot in (1..FAULT_SUBINDICES.len()).rev() {
-            let (to, from) = (
-                usize::from(FAULT_SUBINDICES[slot]) - 1,
-                usize::from(FAULT_SUBINDICES[slot - 1]) - 1,
-            );
-            p.fault_codes[to] = p.fault_codes[from];
-            p.fault_numbers[to] = p.fault_numbers[from];
-        }
-        // The drive reports Fu.xxx numbers, not DRIVECOM codes: 945 and 947 both hold it.
-        p.fault_codes[0] = number;
-        p.fault_numbers[0] = number;
-        p.fault_count = p.fault_count.saturating_add(1);
-        self.fault_at.copy_within(..FAULT_SUBINDICES.len() - 1, 1);
-        self.fault_at[0] = Some(now);
-        self.diag_changed = true;
-        true
-    }
-
     fn note_link(&mut self, now: Instant, error: Option<DriveError>) {
         self.link_error = error;
-        match error {
-            Some(_) => {
-                self.link_lost_since.get_or_insert(now);
-            }
-            None => self.link_lost_since = None,
-        }
-        let flags = match self.link_lost_since {
-            None => 0,
-            Some(since) if now.micros() - since.micros() >= LINK_LOST_PERMANENTLY_US => {
-                EXT_DIAG_LINK_LOST_PERMANENTLY
-            }
-            Some(_) => EXT_DIAG_LINK_LOST_TEMPORARILY,
-        } | if self.drive_status & status::FAULT != 0 {
-            EXT_DIAG_DRIVE_FAULT
-        } else {
-            0
-        };
-        if flags != self.ext_diag_flags {
-            self.ext_diag_flags = flags;
+        let faulted = self.drive_status & status::FAULT != 0;
+        if self.link_diag.note(now, error, faulted) {
             self.diag_changed = true;
         }
     }
@@ -443,12 +369,7 @@ impl<D: Drive> Application for ProfidriveApp<D> {
     }
 
     fn ext_diag(&mut self, buffer: &mut [u8]) -> usize {
-        if self.ext_diag_flags == 0 || buffer.len() < 2 {
-            return 0;
-        }
-        buffer[0] = EXT_DIAG_LEN;
-        buffer[1] = self.ext_diag_flags;
-        2
+        self.link_diag.write(buffer)
     }
 
     fn diag_changed(&mut self) -> bool {

@@ -20,7 +20,9 @@
 pub mod app;
 pub mod codes;
 pub mod drive;
+pub mod faults;
 pub mod gsd;
+pub mod link_diag;
 pub mod pd_params;
 pub mod pkw;
 pub mod ppo;

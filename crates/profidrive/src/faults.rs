@@ -1,0 +1,76 @@
+//! The PROFIdrive fault buffer (seed 004's 945, 947, 948, 952): a new drive fault goes in at
+//! sub-index 1, the older ones move on by 8 (sub-indices 9, 17, .., 41), and 948 counts the
+//! seconds since each. The fault's number is read from the drive's fault record (DE.00) with a
+//! [`ParamRequest`]: the buffer never waits for the drive.
+
+use crate::codes::{named, FunctionCode};
+use crate::drive::{Access, Drive, FaultRecord, ParamRequest};
+use crate::pd_params::{Parameters, FAULT_SUBINDICES};
+use dp_slave::Instant;
+
+/// The buffer's state beside the parameters it fills.
+#[derive(Clone, Debug, Default)]
+pub struct FaultBuffer {
+    /// When each fault of the buffer happened.
+    at: [Option<Instant>; FAULT_SUBINDICES.len()],
+    /// A drive fault seen at this time and not yet in the buffer.
+    due: Option<Instant>,
+    /// The read of the drive's fault record for it, under way.
+    read: Option<ParamRequest>,
+}
+
+impl FaultBuffer {
+    /// The drive's status word went from `was_faulted` to `faulted` at `now`.
+    pub fn observe(&mut self, now: Instant, was_faulted: bool, faulted: bool) {
+        if !was_faulted && faulted {
+            self.due = Some(now);
+        }
+    }
+
+    /// Moves a due fault on as far as the drive's answer allows; whether the buffer changed
+    /// (a new diagnosis).
+    pub fn service(&mut self, drive: &mut impl Drive, params: &mut Parameters) -> bool {
+        let Some(at) = self.due else {
+            return false;
+        };
+        let read = self
+            .read
+            .get_or_insert(ParamRequest::new(Access::Read(FunctionCode(
+                named::FAULT_RECORD,
+            ))));
+        let Some(record) = read.poll(drive) else {
+            return false;
+        };
+        self.read = None;
+        self.due = None;
+        let number = match record.map(|r| FaultRecord::from_byte(r as u8)) {
+            Ok(FaultRecord::Fault(n)) => u16::from(n),
+            _ => 0,
+        };
+        for slot in (1..FAULT_SUBINDICES.len()).rev() {
+            let (to, from) = (
+                usize::from(FAULT_SUBINDICES[slot]) - 1,
+                usize::from(FAULT_SUBINDICES[slot - 1]) - 1,
+            );
+            params.fault_codes[to] = params.fault_codes[from];
+            params.fault_numbers[to] = params.fault_numbers[from];
+        }
+        // The drive reports Fu.xxx numbers, not DRIVECOM codes: 945 and 947 both hold it.
+        params.fault_codes[0] = number;
+        params.fault_numbers[0] = number;
+        params.fault_count = params.fault_count.saturating_add(1);
+        self.at.copy_within(..FAULT_SUBINDICES.len() - 1, 1);
+        self.at[0] = Some(at);
+        true
+    }
+
+    /// 948: the seconds since each fault, at `now`.
+    pub fn update_times(&self, now: Instant, params: &mut Parameters) {
+        for (at, sub) in self.at.iter().zip(FAULT_SUBINDICES) {
+            if let Some(at) = at {
+                let seconds = (now.micros() - at.micros()) / 1_000_000;
+                params.fault_times[usize::from(sub) - 1] = seconds.min(u64::from(u16::MAX)) as u16;
+            }
+        }
+    }
+}

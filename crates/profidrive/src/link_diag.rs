@@ -1,0 +1,61 @@
+//! Seed 004's extended diagnosis: one header byte (its length, 2) and one byte of flags, the
+//! drive link lost temporarily or (after [`LINK_LOST_PERMANENTLY_US`]) permanently, and the
+//! drive's fault (bit 2, this adapter's own, declared in the GSD).
+
+use crate::drive::DriveError;
+use dp_slave::Instant;
+
+/// How long the drive may stay silent before the loss counts as permanent (seed 004's
+/// extended diagnosis: "communication temporarily / permanently lost").
+pub const LINK_LOST_PERMANENTLY_US: u64 = 1_000_000;
+
+pub const EXT_DIAG_LEN: u8 = 2;
+pub const EXT_DIAG_LINK_LOST_TEMPORARILY: u8 = 0x01;
+pub const EXT_DIAG_LINK_LOST_PERMANENTLY: u8 = 0x02;
+/// The drive reports a fault (its status word's fault bit): the master learns of it from the
+/// diagnosis too, not only from the status word it may not be watching.
+pub const EXT_DIAG_DRIVE_FAULT: u8 = 0x04;
+
+/// The flags and when the link was lost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkDiagnosis {
+    lost_since: Option<Instant>,
+    flags: u8,
+}
+
+impl LinkDiagnosis {
+    /// The drive link's state at `now` (`error`: its error, while it lasts) and whether the
+    /// drive reports a fault; whether the flags changed (a new diagnosis).
+    pub fn note(&mut self, now: Instant, error: Option<DriveError>, drive_faulted: bool) -> bool {
+        match error {
+            Some(_) => {
+                self.lost_since.get_or_insert(now);
+            }
+            None => self.lost_since = None,
+        }
+        let flags = match self.lost_since {
+            None => 0,
+            Some(since) if now.micros() - since.micros() >= LINK_LOST_PERMANENTLY_US => {
+                EXT_DIAG_LINK_LOST_PERMANENTLY
+            }
+            Some(_) => EXT_DIAG_LINK_LOST_TEMPORARILY,
+        } | if drive_faulted {
+            EXT_DIAG_DRIVE_FAULT
+        } else {
+            0
+        };
+        let changed = flags != self.flags;
+        self.flags = flags;
+        changed
+    }
+
+    /// The extended diagnosis into `buffer`: its length (none while no flag is set).
+    pub fn write(&self, buffer: &mut [u8]) -> usize {
+        if self.flags == 0 || buffer.len() < 2 {
+            return 0;
+        }
+        buffer[0] = EXT_DIAG_LEN;
+        buffer[1] = self.flags;
+        2
+    }
+}

@@ -75,6 +75,10 @@ pub struct LinkFigures {
     pub outputs_to_inputs_ns: Vec<u64>,
     /// The longest time an event waited for the MCU (queue and link).
     pub worst_event_latency_ns: u64,
+    /// New Data_Exchanges handed over, DP watchdog expiries, and Set_Prm received.
+    pub data_exchanges: u64,
+    pub watchdog_expiries: u64,
+    pub set_prms: u64,
 }
 
 impl LinkFigures {
@@ -204,6 +208,15 @@ impl<F: Firmware> Bridge<F> {
         let now = self.ticks(end_ns);
         let out = self.responder.step(&Input::Telegram { now, bytes });
         if let Some(seq) = out.forward {
+            if out.outputs_only {
+                self.figures.data_exchanges += 1;
+            }
+            if matches!(
+                fdl::Repr::parse_bytes(bytes),
+                Ok((fdl::Repr::Data(d), _)) if d.dsap == Some(fdl::Sap::SET_PRM)
+            ) {
+                self.figures.set_prms += 1;
+            }
             let event = Event::Telegram {
                 seq,
                 baud,
@@ -214,7 +227,7 @@ impl<F: Firmware> Bridge<F> {
         out.response().map(<[u8]>::to_vec)
     }
 
-    /// Whether the telegram is one the responder hands over as new outputs.
+    /// Sends `event` to the MCU; `outputs_only`: a newer one may replace it while unsent.
     fn send(&mut self, at_ns: u64, event: Event, outputs_only: bool) {
         self.figures.events += 1;
         let len = encoded_len(&event, at_ns);
@@ -290,6 +303,7 @@ impl<F: Firmware> Bridge<F> {
         if self.responder.deadline().is_some_and(|d| d <= now) {
             let out = self.responder.step(&Input::Clock { now });
             if let Some(seq) = out.watchdog_expired {
+                self.figures.watchdog_expiries += 1;
                 self.send(t, Event::Watchdog { seq }, false);
             }
             return Ok(());

@@ -219,15 +219,25 @@ fn serial_port(
     let start = Instant::now();
     let mut link_errors = 0u64;
     let mut last_link_error = 0u8;
+    // A reply is late if it left more than the GSD's MaxTsdr at the port's rate after the request was
+    // read (the port's own latency comes on top, on both sides, and is not ours to count).
+    let late_after = Duration::from_micros(
+        u64::from(dp_baud.adapter_max_tsdr_bits()) * 1_000_000 / u64::from(baud.max(1)),
+    );
+    let mut late_replies = 0u64;
     let mut last_print = Instant::now();
     let mut buf = [0u8; 512];
     loop {
         let now_us = start.elapsed().as_micros() as u64;
         match port.read(&mut buf) {
             Ok(n) if n > 0 => {
+                let read_at = Instant::now();
                 let answer = adapter.on_bytes(now_us, &buf[..n])?;
                 if !answer.is_empty() {
                     port.write_all(&answer)?;
+                    if read_at.elapsed() > late_after {
+                        late_replies += 1;
+                    }
                 }
             }
             Ok(_) => {}
@@ -261,14 +271,18 @@ fn serial_port(
         }
         let checked = checker.as_ref().is_some_and(|c| c.is_finished());
         if checked || stop.load(Ordering::SeqCst) || stop_at.is_some_and(|s| start.elapsed() >= s) {
+            let f = &adapter.bridge.figures;
             println!(
-                "\nqemu-run: {:.1} s, {} telegrams, {} responses, {} bytes skipped, drive link errors seen {}, state {:?}",
+                "\nqemu-run: seconds={:.1} requests={} responses={} data_exchange={} watchdog_expiries={} reparameterisations={} late_replies={} skipped_bytes={} drive_link_errors={}",
                 start.elapsed().as_secs_f64(),
                 adapter.telegrams,
                 adapter.responses,
+                f.data_exchanges,
+                f.watchdog_expiries,
+                f.set_prms.saturating_sub(1),
+                late_replies,
                 adapter.skipped_bytes,
                 link_errors,
-                adapter.bridge.status.state
             );
             if let Some(checker) = checker {
                 let r = checker

@@ -208,10 +208,10 @@ impl<F: Firmware> Bridge<F> {
         let now = self.ticks(end_ns);
         let out = self.responder.step(&Input::Telegram { now, bytes });
         if let Some(seq) = out.forward {
+            // New outputs are most of what is handed over: only the rest is looked into.
             if out.outputs_only {
                 self.figures.data_exchanges += 1;
-            }
-            if matches!(
+            } else if matches!(
                 fdl::Repr::parse_bytes(bytes),
                 Ok((fdl::Repr::Data(d), _)) if d.dsap == Some(fdl::Sap::SET_PRM)
             ) {

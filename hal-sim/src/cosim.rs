@@ -616,16 +616,15 @@ impl<F: Firmware> CoSim<F> {
             .baud_state()
             .baud()
             .map_or(0, |b| b.index() as u8);
-        let forwarded = self.bridge.figures.events;
+        let (forwarded, exchanges) = (
+            self.bridge.figures.events,
+            self.bridge.figures.data_exchanges,
+        );
         let response = self.bridge.telegram(ns_from_ticks(end), baud, &bytes);
         if self.bridge.figures.events > forwarded {
             self.figures.forwarded += 1;
         }
-        let data_exchange = matches!(
-            fdl::Repr::parse_bytes(&bytes),
-            Ok((fdl::Repr::Data(d), _)) if d.dsap.is_none() && d.da == self.bridge.status.address
-        );
-        if data_exchange {
+        if self.bridge.figures.data_exchanges > exchanges {
             self.dx_request_ends.push(end);
         }
         let Some(response) = response else {

@@ -438,14 +438,6 @@ impl<A: Application> Slave<A> {
         self.no_add_chg
     }
 
-    /// The application refused user parameters it had first taken on trust (an adapter that
-    /// answers Set_Prm before it checks them): Prm_Fault, back to Wait_Prm, no owner, no lock,
-    /// no watchdog, as if the Set_Prm had been refused.
-    pub fn refuse_parameters(&mut self, now: Instant) {
-        self.prm_fault = true;
-        self.release(now);
-    }
-
     /// Back to Wait_Prm with no owner, no lock and no watchdog.
     fn release(&mut self, now: Instant) {
         self.owner = None;

@@ -109,7 +109,7 @@ macro_rules! adapter_app {
                 info!("boot: {}", board::NAME);
                 info!("cycle counter: 100 nops count {=u32} cycles", board::calibrate());
                 let mut link_tx = board::link_tx();
-                send(&mut link_tx, &FromAdapter::Ready);
+                send(&mut link_tx, &mut [0; dp_link::MAX_FRAME_LEN], &FromAdapter::Ready);
                 crate::selftest();
                 link::spawn(woken).ok();
                 (
@@ -138,19 +138,29 @@ macro_rules! adapter_app {
                 let uart = cx.local.link_rx;
                 uart.clear_rx_interrupt();
                 let mut frame_ended = false;
-                while let Some(byte) = uart.read_byte() {
-                    if byte == 0 {
-                        FRAME_END.store(board::timestamp(), Ordering::Relaxed);
-                        frame_ended = true;
-                    }
-                    match cx.local.producer.grant_exact(1) {
-                        Ok(mut grant) => {
-                            grant[0] = byte;
-                            grant.commit(1);
-                        }
-                        // Four frames behind: a dropped byte fails its frame, which the
+                // One grant for all the bytes waiting, not one per byte: bbqueue's grant and
+                // commit cost more than the byte's copy.
+                loop {
+                    let Ok(mut grant) = cx.local.producer.grant_max_remaining(crate::LINK_QUEUE_LEN) else {
+                        // Four frames behind: the dropped bytes fail their frame, which the
                         // deframer drops; the transceiver's registers wait for a newer event.
-                        Err(_) => {}
+                        while uart.read_byte().is_some() {}
+                        break;
+                    };
+                    let mut n = 0;
+                    while n < grant.len() {
+                        let Some(byte) = uart.read_byte() else { break };
+                        grant[n] = byte;
+                        n += 1;
+                        if byte == 0 {
+                            FRAME_END.store(board::timestamp(), Ordering::Relaxed);
+                            frame_ended = true;
+                        }
+                    }
+                    let filled = n == grant.len();
+                    grant.commit(n);
+                    if !filled {
+                        break;
                     }
                 }
                 // The link task runs on whole frames only, so its work after the frame's end
@@ -168,7 +178,7 @@ macro_rules! adapter_app {
             }
 
             /// Decodes frames, runs the adapter, sends the replies.
-            #[task(priority = 1, local = [consumer, link_tx, adapter, deframer: Deframer = Deframer::new()])]
+            #[task(priority = 1, local = [consumer, link_tx, adapter, deframer: Deframer = Deframer::new(), frame: [u8; dp_link::MAX_FRAME_LEN] = [0; dp_link::MAX_FRAME_LEN]])]
             async fn link(cx: link::Context, mut woken: Receiver<'static, (), 1>) {
                 let tx = cx.local.link_tx.as_mut().unwrap();
                 while woken.recv().await.is_ok() {
@@ -183,7 +193,7 @@ macro_rules! adapter_app {
                                     rest = r;
                                 }
                                 Fed::Message(message, r) => {
-                                    handle(cx.local.adapter, tx, &message);
+                                    handle(cx.local.adapter, tx, cx.local.frame, &message);
                                     rest = r;
                                 }
                             }
@@ -193,7 +203,12 @@ macro_rules! adapter_app {
                 }
             }
 
-            fn handle(slot: &mut Option<Adapter<crate::DriveApp>>, tx: &mut board::Uart, message: &ToAdapter) {
+            fn handle(
+                slot: &mut Option<Adapter<crate::DriveApp>>,
+                tx: &mut board::Uart,
+                frame: &mut [u8; dp_link::MAX_FRAME_LEN],
+                message: &ToAdapter,
+            ) {
                 // Instructions are counted from the frame's end, for hal-sim's board time.
                 #[cfg(feature = "sim")]
                 #[allow(unused_mut)]
@@ -218,18 +233,28 @@ macro_rules! adapter_app {
                     return;
                 };
                 let (before, address) = (adapter.slave().state(), adapter.slave().address());
+                #[cfg(feature = "sim")]
+                let (mut writes, mut decision) = (0u32, (0u32, 0u32));
                 adapter.handle(message, &mut |out| match out {
-                    Out::Write(write) => send(tx, &write),
+                    Out::Write(write) => {
+                        send(tx, frame, &write);
+                        #[cfg(feature = "sim")]
+                        {
+                            writes += 1;
+                        }
+                    }
                     Out::DecisionWritten => {
                         #[cfg(feature = "sim")]
-                        send(tx, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Sent {
-                            instructions: board::cycles_since(start),
-                        }));
+                        {
+                            decision = (board::cycles_since(start), writes);
+                        }
                     }
                 });
                 let (state, new_address) = (adapter.slave().state(), adapter.slave().address());
                 #[cfg(feature = "sim")]
-                send(tx, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Done {
+                send(tx, frame, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Done {
+                    decision_instructions: decision.0,
+                    decision_writes: decision.1,
                     instructions: board::cycles_since(start),
                     drive_tx_bytes: adapter::Background::drive_tx_bytes(adapter.app()),
                 }));
@@ -242,9 +267,9 @@ macro_rules! adapter_app {
                 }
             }
 
-            fn send(tx: &mut board::Uart, message: &FromAdapter) {
-                let mut frame = [0u8; dp_link::MAX_FRAME_LEN];
-                match dp_link::encode(message, &mut frame) {
+            /// `frame` is the task's: a fresh zeroed frame per message cost more than encoding it.
+            fn send(tx: &mut board::Uart, frame: &mut [u8; dp_link::MAX_FRAME_LEN], message: &FromAdapter) {
+                match dp_link::encode(message, frame) {
                     Ok(bytes) => bytes.iter().for_each(|b| tx.write_byte(*b)),
                     Err(_) => warn!("link: message does not fit a frame"),
                 }

@@ -231,13 +231,14 @@ impl<F: Firmware> Bridge<F> {
     fn send(&mut self, at_ns: u64, event: Event, outputs_only: bool) {
         self.figures.events += 1;
         let len = encoded_len(&event, at_ns);
+        let transfer_ns = self.event_transfer_ns(len);
         if outputs_only {
             if let Some(last) = self.to_mcu.back_mut() {
                 if last.outputs_only && last.start_ns > at_ns {
                     // Not on the wire yet: the newer outputs take its place.
                     last.event = event;
                     last.at_ns = at_ns;
-                    last.arrived_ns = last.start_ns + self.board.link.transfer_ns(len);
+                    last.arrived_ns = last.start_ns + transfer_ns;
                     self.to_mcu_free_ns = last.arrived_ns;
                     self.figures.outputs_replaced += 1;
                     return;
@@ -245,7 +246,7 @@ impl<F: Firmware> Bridge<F> {
             }
         }
         let start_ns = at_ns.max(self.to_mcu_free_ns);
-        let arrived_ns = start_ns + self.board.link.transfer_ns(len);
+        let arrived_ns = start_ns + transfer_ns;
         self.to_mcu_free_ns = arrived_ns;
         self.to_mcu.push_back(InFlight {
             event,
@@ -254,6 +255,13 @@ impl<F: Firmware> Bridge<F> {
             arrived_ns,
             outputs_only,
         });
+    }
+
+    /// An event of `len` bytes on the link to the MCU, up to its interrupt: the frame and the
+    /// idle line after it.
+    fn event_transfer_ns(&self, len: usize) -> u64 {
+        let link = self.board.link;
+        link.transfer_ns(len + link.idle_bytes_after_frame as usize)
     }
 
     /// When something happens next, if anything is due.
@@ -395,22 +403,30 @@ impl<F: Firmware> Bridge<F> {
     /// on the drive line; returns when the decision was in the transceiver: its last write
     /// landed, or (nothing changed) the firmware had taken it.
     fn take(&mut self, start_ns: u64, handled: &Handled) -> io::Result<u64> {
-        let done_ns = start_ns + self.board.instructions_ns(u64::from(handled.instructions));
+        let link = self.board.link;
+        // Time the MCU spent waiting for the link to take its writes (blocking writes).
+        let mut blocked_ns = 0;
         let mut decided_ns = start_ns
             + self
                 .board
                 .instructions_ns(u64::from(handled.decision_instructions));
         for (i, (instructions, write)) in handled.writes.iter().enumerate() {
-            let sent = start_ns + self.board.instructions_ns(u64::from(*instructions));
+            let sent = start_ns + self.board.instructions_ns(u64::from(*instructions)) + blocked_ns;
             let begin = sent.max(self.from_mcu_free_ns);
-            let arrived = begin + self.board.link.transfer_ns(write.encoded_len());
+            let arrived = begin + link.transfer_ns(write.encoded_len());
             self.from_mcu_free_ns = arrived;
+            if link.blocking_writes {
+                // The last byte's hand-over: one byte time before it has gone out.
+                blocked_ns += (arrived - link.transfer_ns(1)).saturating_sub(sent);
+            }
             if i < handled.decision_writes {
                 decided_ns = arrived;
             }
             self.figures.writes += 1;
             self.from_mcu.push_back((arrived, write.clone()));
         }
+        let done_ns =
+            start_ns + self.board.instructions_ns(u64::from(handled.instructions)) + blocked_ns;
         self.mcu_free_ns = done_ns;
         // The bytes the firmware wrote to its drive UART go on the drive line when it is done.
         let sent = handled.drive_tx_bytes.wrapping_sub(self.drive.received);
@@ -502,4 +518,77 @@ fn encoded_len(event: &Event, at_ns: u64) -> usize {
     };
     let mut frame = [0u8; MAX_FRAME_LEN];
     dp_link::encode(&message, &mut frame).map_or(MAX_FRAME_LEN, |f| f.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A firmware that handles every event alike: `decision` instructions, then one write of
+    /// the given inputs (the decision's), then `total` instructions in all.
+    struct Fixed {
+        decision: u32,
+        total: u32,
+        inputs: Vec<u8>,
+    }
+
+    impl Firmware for Fixed {
+        fn exchange(&mut self, _: &ToAdapter) -> io::Result<Handled> {
+            Ok(Handled {
+                writes: vec![(self.decision, Write::Inputs(self.inputs.clone()))],
+                decision_writes: 1,
+                decision_instructions: self.decision,
+                instructions: self.total,
+                drive_tx_bytes: 0,
+            })
+        }
+        fn restart(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+        fn drive_send(&mut self, _: &[u8]) -> io::Result<()> {
+            Ok(())
+        }
+        fn drive_receive(&mut self, _: usize) -> io::Result<Vec<u8>> {
+            Ok(Vec::new())
+        }
+    }
+
+    #[test]
+    fn the_board_charges_the_idle_character_and_the_blocking_write() {
+        let firmware = Fixed {
+            decision: 720,
+            total: 1440,
+            inputs: vec![0x55; 12],
+        };
+        let mut bridge = Bridge::new(firmware, 48_000_000, 5, None);
+        let board = bridge.board;
+        let link = board.link;
+        assert!(link.blocking_writes && link.idle_bytes_after_frame == 1);
+        bridge.boot(0);
+        let boot_len = encoded_len(
+            &Event::Boot {
+                seq: 1,
+                switch: 5,
+                nv: None,
+            },
+            0,
+        );
+        // The Boot reaches the MCU after its bytes and the idle character, plus the entry.
+        let arrival = link.transfer_ns(boot_len + 1);
+        assert_eq!(bridge.next_ns(), Some(arrival + board.irq_entry_ns()));
+        let start = arrival + board.irq_entry_ns();
+        bridge.poll(start).unwrap();
+        // The write leaves after the decision's instructions and takes its bytes' time; the
+        // MCU waits for all but the last byte, so the rest of its work starts only then.
+        let write_len = Write::Inputs(vec![0x55; 12]).encoded_len();
+        let written = start + board.instructions_ns(720) + link.transfer_ns(write_len);
+        assert_eq!(bridge.next_ns(), Some(written));
+        let blocked = link.transfer_ns(write_len) - link.transfer_ns(1);
+        assert_eq!(
+            bridge.mcu_free_ns,
+            start + board.instructions_ns(1440) + blocked
+        );
+        bridge.poll(written).unwrap();
+        assert!(bridge.idle());
+    }
 }

@@ -25,9 +25,9 @@ use profirust::dp::{DpMaster, Peripheral, PeripheralOptions};
 use profirust::fdl::{FdlActiveStation, ParametersBuilder};
 use std::io;
 
-/// The first adapter's address; the others follow.
-pub const FIRST_ADDRESS: u8 = 10;
-const MASTER_ADDRESS: u8 = 2;
+/// The master's address, and the first adapter's (the others follow it).
+pub const MASTER_ADDRESS: u8 = 1;
+pub const FIRST_ADDRESS: u8 = 2;
 
 /// Where the bit times of the measured cycles went.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -39,8 +39,10 @@ pub struct Breakdown {
     pub tsdr_bits: u64,
     /// The idle line before each request, up to TSYN (33 bit times): the line's own rule.
     pub tsyn_bits: u64,
-    /// The master's: its token, GAP polls (and the slot time each waits for a station that is
-    /// not there), Global_Control, and its idle time beyond TSYN.
+    /// The master's GAP poll: its FDL_Status requests, the answers, and the slot time it
+    /// waits where no station answers (idle included).
+    pub gap_bits: u64,
+    /// The rest of the master's: its token, Global_Control, and its idle time beyond TSYN.
     pub master_bits: u64,
 }
 
@@ -115,8 +117,25 @@ pub fn floor_bits(ppo: Ppo, slaves: usize) -> u64 {
     per_slave * slaves as u64
 }
 
-/// Runs `slaves` adapters with `ppo` at `baud` until `cycles` cycles were measured.
-pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<CycleRun> {
+/// The master's highest station address (HSA) by default: just above the last adapter.
+pub fn default_hsa(slaves: usize) -> u8 {
+    FIRST_ADDRESS + slaves as u8
+}
+
+/// Runs `slaves` adapters with `ppo` at `baud` until `cycles` cycles were measured, the
+/// master's HSA at `hsa`.
+pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize, hsa: u8) -> io::Result<CycleRun> {
+    if slaves == 0
+        || usize::from(FIRST_ADDRESS) + slaves > 126
+        || hsa <= MASTER_ADDRESS
+        || hsa > 126
+    {
+        return Err(io::Error::other(format!(
+            "{slaves} adapters from address {FIRST_ADDRESS} with HSA {hsa}: the adapters need \
+             addresses up to 125 and the HSA lies above the master's address {MASTER_ADDRESS}, \
+             at most 126"
+        )));
+    }
     let timing = BitTiming::new(CLOCK_HZ, baud, 0);
     let cpb = timing.clocks_per_bit();
     let mut bus = Bus::new(FaultInjector::none());
@@ -143,9 +162,13 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
     }
     let mut fdl = FdlActiveStation::new(
         ParametersBuilder::new(MASTER_ADDRESS, crate::cosim::profirust_baud(baud))
-            .highest_station_address(MASTER_ADDRESS + 1)
-            // One master on the line: its GAP scan (a slot time waiting for a station that is
-            // not there) every hundredth token rotation, not every tenth (profirust's default).
+            // By default HSA is just above the last station, as one tunes it for speed. One
+            // master on the line never ends its GAP scan in profirust 0.6 (`next_gap_poll` only
+            // stops at the next master, which is itself), so it polls one address of the GAP
+            // every token rotation: with HSA here, ten of every twelve polls reach an adapter
+            // that answers in min TSDR, and two wait a slot time (address 0, and the master's
+            // own); with HSA 126 nearly every rotation would wait one.
+            .highest_station_address(hsa)
             .gap_wait_rotations(100)
             .watchdog_timeout(profirust::time::Duration::from_millis(200))
             .build_verified(&dp),
@@ -289,6 +312,7 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
     let mut b = Breakdown::default();
     let mut last_end = from;
     let mut last_request_end = None;
+    let mut after_gap_request = false;
     for (start, end, kind) in heard.iter().filter(|(s, _, _)| *s >= from && *s < to) {
         let idle = bits(start.saturating_sub(last_end));
         let len = bits(end - start);
@@ -296,7 +320,12 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
             Kind::Request => {
                 let tsyn = idle.min(u64::from(dp_consts::TSYN_BITS));
                 b.tsyn_bits += tsyn;
-                b.master_bits += idle - tsyn;
+                // The slot time after an unanswered GAP poll is the GAP's.
+                if after_gap_request {
+                    b.gap_bits += idle - tsyn;
+                } else {
+                    b.master_bits += idle - tsyn;
+                }
                 b.request_bits += len;
                 last_request_end = Some(*end);
             }
@@ -304,8 +333,11 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
                 b.tsdr_bits += idle;
                 b.response_bits += len;
             }
+            Kind::Gap => b.gap_bits += idle + len,
+            Kind::Response | Kind::Other if after_gap_request => b.gap_bits += idle + len,
             Kind::Response | Kind::Other => b.master_bits += idle + len,
         }
+        after_gap_request = *kind == Kind::Gap;
         last_end = *end;
     }
     b.master_bits += bits(to.saturating_sub(last_end));
@@ -315,6 +347,7 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize) -> io::Result<Cyc
         response_bits: b.response_bits / n,
         tsdr_bits: b.tsdr_bits / n,
         tsyn_bits: b.tsyn_bits / n,
+        gap_bits: b.gap_bits / n,
         master_bits: b.master_bits / n,
     };
     let bit_us = 1e6 / f64::from(baud.bits_per_second());
@@ -338,6 +371,8 @@ enum Kind {
     Request,
     /// A slave's answer to one.
     Response,
+    /// The master's GAP poll (an FDL_Status request) and a station's answer to it.
+    Gap,
     Other,
 }
 
@@ -384,6 +419,11 @@ fn classify(bytes: &[u8]) -> Kind {
                 function: fdl::RequestFunction::SrdHigh | fdl::RequestFunction::SrdLow,
                 ..
             } if d.da >= FIRST_ADDRESS => Kind::Request,
+            fdl::FrameControl::Request {
+                function: fdl::RequestFunction::FdlStatus,
+                ..
+            } => Kind::Gap,
+            fdl::FrameControl::Response { .. } if d.payload.is_empty() => Kind::Gap,
             fdl::FrameControl::Response { .. } if d.sa >= FIRST_ADDRESS => Kind::Response,
             _ => Kind::Other,
         },

@@ -4,7 +4,7 @@
 //! Both speak the link protocol of `dp-link`: the simulator hands over one event
 //! ([`ToAdapter`]) and collects what the firmware writes while it handles it ([`Handled`]):
 //! the product's writes for the transceiver, each with the instructions the firmware had run
-//! when it sent it (the simulation-only `Sent` and `Done` marks), so that the caller places
+//! when it sent it (the simulation-only `Done` mark), so that the caller places
 //! them in board time. The QEMU side is a localhost socket that QEMU's UART0 connects to;
 //! QEMU's stdout carries only the defmt stream (semihosting), collected for the caller to
 //! decode.
@@ -248,6 +248,14 @@ impl Qemu {
                 "-kernel",
             ])
             .arg(elf)
+            // More QEMU arguments, for a profile: `-d in_asm,exec,nochain -D qemu.log` logs
+            // every translated block and each run of one, enough to count instructions per
+            // function.
+            .args(
+                std::env::var("HALSIM_QEMU_EXTRA")
+                    .map(|v| v.split_whitespace().map(String::from).collect::<Vec<_>>())
+                    .unwrap_or_default(),
+            )
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -397,20 +405,27 @@ impl Firmware for Qemu {
                 Some(FromAdapter::Ready) => {
                     return Err(io::Error::other("Ready again: the firmware restarted"))
                 }
-                Some(FromAdapter::Sim(SimFromAdapter::Sent { instructions })) => {
-                    handled
-                        .writes
-                        .extend(unmarked.drain(..).map(|w| (instructions, w)));
-                    handled.decision_writes = handled.writes.len();
-                    handled.decision_instructions = instructions;
-                }
                 Some(FromAdapter::Sim(SimFromAdapter::Done {
+                    decision_instructions,
+                    decision_writes,
                     instructions,
                     drive_tx_bytes,
                 })) => {
-                    handled
-                        .writes
-                        .extend(unmarked.drain(..).map(|w| (instructions, w)));
+                    let decision_writes = (decision_writes as usize).min(unmarked.len());
+                    handled.writes = unmarked
+                        .drain(..)
+                        .enumerate()
+                        .map(|(i, w)| {
+                            let at = if i < decision_writes {
+                                decision_instructions
+                            } else {
+                                instructions
+                            };
+                            (at, w)
+                        })
+                        .collect();
+                    handled.decision_writes = decision_writes;
+                    handled.decision_instructions = decision_instructions;
                     handled.instructions = instructions;
                     handled.drive_tx_bytes = drive_tx_bytes;
                     return Ok(handled);

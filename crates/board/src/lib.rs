@@ -18,6 +18,12 @@ pub struct Link {
     pub bit_rate: u32,
     /// Bits on the wire per byte of payload (start, 8 data, stop: 10 for a UART in 8N1).
     pub bits_per_byte: u32,
+    /// Idle bytes the transceiver leaves after each frame to the MCU: the MCU receives by DMA
+    /// and interrupts on the idle line, so a frame reaches the firmware when they have passed.
+    pub idle_bytes_after_frame: u32,
+    /// The MCU hands its writes to the link a byte at a time and waits for each: its next
+    /// instruction follows the last byte's hand-over.
+    pub blocking_writes: bool,
 }
 
 impl Link {
@@ -64,7 +70,9 @@ impl Board {
 /// - Link: USART1 at 4.5 Mbit/s, 8N1, the fastest the F103's USART reaches (APB2 at 72 MHz,
 ///   oversampling by 16). The transceiver answers every DP-V0 request from buffers, so the
 ///   link carries only buffer updates and the requests the firmware decides; its byte time
-///   enters no response time.
+///   enters no response time. The MCU receives by DMA (an interrupt per byte would take more
+///   than the 160 cycles a byte lasts) and interrupts on the idle character after each frame;
+///   it sends byte by byte, waiting on the data register.
 /// - Instructions: 150 % (two flash wait states at 72 MHz; the prefetch buffer hides part of
 ///   them: a conservative figure, not a measurement).
 /// - Interrupt entry: 12 cycles, the Cortex-M3's exception entry with no wait states on the
@@ -78,6 +86,8 @@ pub const STM32F103: Board = Board {
     link: Link {
         bit_rate: 4_500_000,
         bits_per_byte: 10,
+        idle_bytes_after_frame: 1,
+        blocking_writes: true,
     },
     flash_bytes: 64 * 1024,
     ram_bytes: 20 * 1024,

@@ -168,12 +168,13 @@ pub mod sim {
     #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
     #[cfg_attr(feature = "defmt", derive(defmt::Format))]
     pub enum SimFromAdapter {
-        /// The messages before this one were handed to the link UART `instructions` after the
-        /// handling of the message began.
-        Sent { instructions: u32 },
-        /// The message is handled, after `instructions`; `drive_tx_bytes` bytes have gone to
-        /// the drive UART since power-up.
+        /// The message is handled, after `instructions`. Its first `decision_writes` writes
+        /// (the decision's) were all handed to the link after `decision_instructions`;
+        /// `drive_tx_bytes` bytes have gone to the drive UART since power-up. One mark at the
+        /// end, so that the simulation's own messages cost the counts nothing.
         Done {
+            decision_instructions: u32,
+            decision_writes: u32,
             instructions: u32,
             drive_tx_bytes: u32,
         },
@@ -427,6 +428,8 @@ mod tests {
             FromAdapter::Cfg(&buffer),
             FromAdapter::Status(status()),
             FromAdapter::Sim(sim::SimFromAdapter::Done {
+                decision_instructions: u32::MAX,
+                decision_writes: u32::MAX,
                 instructions: u32::MAX,
                 drive_tx_bytes: u32::MAX,
             }),

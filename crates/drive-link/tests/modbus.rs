@@ -526,3 +526,119 @@ fn a_late_answer_costs_at_most_its_own_transaction() {
         assert_eq!(*o, Some(transaction(i).1), "transaction {i}: {outcomes:?}");
     }
 }
+
+/// Issue 16: an answer whose first bytes arrive before the timeout and the rest after. The
+/// master gives up on it at the timeout, discards the rest before it sends again, and reads the
+/// retry's answer whole.
+#[test]
+fn an_answer_split_across_the_timeout_is_discarded_and_the_retry_succeeds() {
+    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
+    let answer = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
+    let config = Config {
+        timeout_us: 1000,
+        retries: 1,
+    };
+    let mut uart = Mock::new(&[
+        would_block(),
+        Transaction::write_many(request.clone()),
+        // Three bytes in time, then silence until the timeout.
+        Transaction::read_many(answer[..3].to_vec()),
+        would_block(),
+        would_block(),
+        // The retry: the rest of the late answer is waiting, and is discarded.
+        Transaction::read_many(answer[3..].to_vec()),
+        would_block(),
+        Transaction::write_many(request),
+        Transaction::read_many(answer),
+    ]);
+    let mut master = ModbusMaster::new(uart.clone(), config);
+    master.start(Op::Read(0xD000)).unwrap();
+    assert_eq!(master.poll(0), None, "three bytes of seven");
+    assert_eq!(master.poll(1000), None, "timed out, retrying");
+    assert_eq!(master.poll(1100), Some(Outcome::Value(100)));
+    assert_eq!(
+        (
+            master.stats.timeouts,
+            master.stats.retries,
+            master.stats.stale_bytes
+        ),
+        (1, 1, 4)
+    );
+    uart.done();
+}
+
+/// A burst of noise on the drive line: bytes and a framing error between transactions are
+/// discarded before the next request; inside an answer it garbles that answer only, which is
+/// sent for again.
+#[test]
+fn a_noise_burst_costs_at_most_the_answer_it_hit() {
+    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
+    let answer = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
+    let mut garbled = answer.clone();
+    garbled[2] ^= 0x5A;
+    garbled[4] ^= 0xA5;
+    let frame_error = || {
+        Transaction::read_error(nb::Error::Other(
+            embedded_hal_nb::serial::ErrorKind::FrameFormat,
+        ))
+    };
+    let config = Config {
+        timeout_us: 1000,
+        retries: 1,
+    };
+    let mut uart = Mock::new(&[
+        // Before the first transaction: a burst, discarded.
+        Transaction::read_many(vec![0xFF, 0x00, 0x13, 0xE7, 0x81]),
+        frame_error(),
+        Transaction::read_many(vec![0x3C, 0x01]),
+        would_block(),
+        Transaction::write_many(request.clone()),
+        Transaction::read_many(answer.clone()),
+        // The second transaction: the burst hits its answer.
+        would_block(),
+        Transaction::write_many(request.clone()),
+        frame_error(),
+        Transaction::read_many(garbled),
+        // Sent for again.
+        would_block(),
+        Transaction::write_many(request),
+        Transaction::read_many(answer),
+    ]);
+    let mut master = ModbusMaster::new(uart.clone(), config);
+    master.start(Op::Read(0xD000)).unwrap();
+    assert_eq!(master.poll(0), Some(Outcome::Value(100)));
+    assert_eq!(master.stats.stale_bytes, 7);
+    master.start(Op::Read(0xD000)).unwrap();
+    assert_eq!(master.poll(2000), None, "garbled, retrying");
+    assert_eq!(master.poll(2100), Some(Outcome::Value(100)));
+    assert_eq!(master.stats.retries, 1);
+    uart.done();
+}
+
+/// An answer from another station (a second drive on the line, or a corrupted address with a
+/// CRC that happens to fit) is not this drive's: it is not taken as the value, and the request
+/// goes out again.
+#[test]
+fn an_answer_from_the_wrong_station_is_not_taken() {
+    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
+    let foreign = with_crc(vec![0x02, 0x03, 0x02, 0x12, 0x34]);
+    let answer = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
+    let config = Config {
+        timeout_us: 1000,
+        retries: 1,
+    };
+    let mut uart = Mock::new(&[
+        would_block(),
+        Transaction::write_many(request.clone()),
+        Transaction::read_many(foreign),
+        would_block(),
+        Transaction::write_many(request),
+        Transaction::read_many(answer),
+    ]);
+    let mut master = ModbusMaster::new(uart.clone(), config);
+    master.start(Op::Read(0xD000)).unwrap();
+    assert_eq!(master.poll(0), None, "not ours: retrying");
+    assert_eq!(master.poll(100), Some(Outcome::Value(100)));
+    assert_eq!(master.stats.retries, 1);
+    uart.done();
+}

@@ -13,9 +13,12 @@
 //! - `--switch N`: the address switch (default 8); `--seconds N`: stop after N seconds of
 //!   wall time (default: until Ctrl-C or SIGTERM, which stop QEMU and print a summary).
 //!
+//! - `--pty-link PATH` (with `--port pty`): where the stable symlink to the pty goes (default
+//!   `target/qemu-run.pty`), so that a master's configuration names one path from run to run.
+//!   Only a symlink is ever replaced there, and it is removed at the end of the run.
+//!
 //! The status line rewrites itself on a terminal and prints a line each time otherwise (a log
-//! file holds lines). The pty's name is also linked from `target/qemu-run.pty`, a name that
-//! stays the same from run to run.
+//! file holds lines).
 
 use crate::qemu_test::{build, ensure_qemu, ensure_target, IMAGES};
 use crate::{check_flags, flag_value};
@@ -64,8 +67,19 @@ pub fn run(args: &[String]) -> Result<()> {
     check_flags(
         args,
         &[],
-        &["--port", "--baud", "--switch", "--seconds", "--check"],
+        &[
+            "--port",
+            "--baud",
+            "--switch",
+            "--seconds",
+            "--check",
+            "--pty-link",
+        ],
     )?;
+    let pty_link = flag_value(args, "--pty-link")?.map(std::path::PathBuf::from);
+    if pty_link.is_some() && flag_value(args, "--port")? != Some("pty") {
+        bail!("--pty-link names a link to the pty: use it with --port pty");
+    }
     let check: Option<f64> = flag_value(args, "--check")?
         .map(str::parse)
         .transpose()
@@ -98,7 +112,36 @@ pub fn run(args: &[String]) -> Result<()> {
         .map(Duration::from_secs_f64);
     match flag_value(args, "--port")? {
         None => simulated_bus(firmware, switch, stop_at),
-        Some(port) => serial_port(firmware, switch, port, port_baud, stop_at, check),
+        Some(port) => {
+            let link =
+                pty_link.unwrap_or_else(|| crate::project_root().join("target/qemu-run.pty"));
+            serial_port(firmware, switch, port, port_baud, stop_at, check, &link)
+        }
+    }
+}
+
+/// Links `path` to the pty `name`. Only a symlink (an earlier run's) is replaced: a file or a
+/// directory there is the user's.
+fn link_pty(name: &str, path: &std::path::Path) -> Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => std::fs::remove_file(path)
+            .with_context(|| format!("--pty-link: replacing the old link {}", path.display()))?,
+        Ok(_) => bail!(
+            "--pty-link: {} exists and is not a symlink; name another path",
+            path.display()
+        ),
+        Err(_) => {}
+    }
+    std::os::unix::fs::symlink(name, path)
+        .with_context(|| format!("--pty-link: linking {} to {name}", path.display()))
+}
+
+/// The link to the pty, removed when the run ends (the pty goes with it).
+struct LinkedPty(std::path::PathBuf);
+
+impl Drop for LinkedPty {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
     }
 }
 
@@ -167,6 +210,7 @@ fn serial_port(
     baud: u32,
     stop_at: Option<Duration>,
     check: Option<f64>,
+    pty_link: &std::path::Path,
 ) -> Result<()> {
     let dp_baud = Baud::ALL
         .into_iter()
@@ -175,21 +219,17 @@ fn serial_port(
     let mut adapter = SerialAdapter::new(firmware, switch, dp_baud)?;
     // The pty's other end must stay open while we run (or the check's master holds it).
     let mut _pty_other_end = None;
+    let mut _linked = None;
     let mut checker = None;
     let mut port: Box<dyn SerialPort> = if port == "pty" {
         let (master, slave) = serialport::TTYPort::pair().context("creating a pseudo-terminal")?;
         let name = slave.name().unwrap_or_default();
-        let link = crate::project_root().join("target/qemu-run.pty");
-        let _ = std::fs::remove_file(&link);
-        let linked = std::os::unix::fs::symlink(&name, &link).is_ok();
+        link_pty(&name, pty_link)?;
+        _linked = Some(LinkedPty(pty_link.to_path_buf()));
         println!(
-            "qemu-run: the adapter (address {}) is on {name}{}: point the DP master at it",
+            "qemu-run: the adapter (address {}) is on {name} (also {}): point the DP master at it",
             adapter.bridge.status.address,
-            if linked {
-                format!(" (also {})", link.display())
-            } else {
-                String::new()
-            }
+            pty_link.display()
         );
         match check {
             Some(seconds) => {

@@ -527,26 +527,32 @@ fn a_late_answer_costs_at_most_its_own_transaction() {
     }
 }
 
-/// Issue 16: an answer whose first bytes arrive before the timeout and the rest after. The
-/// master gives up on it at the timeout, discards the rest before it sends again, and reads the
-/// retry's answer whole.
-#[test]
-fn an_answer_split_across_the_timeout_is_discarded_and_the_retry_succeeds() {
+/// A read of D0.00 from drive 1, its answer (100), and a master that retries once after 1 ms.
+fn read_d000_one_retry() -> (Vec<u8>, Vec<u8>, Config) {
     let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
     let answer = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
     let config = Config {
         timeout_us: 1000,
         retries: 1,
     };
+    (request, answer, config)
+}
+
+/// Issue 16: an answer whose first bytes arrive before the timeout and the rest after. The
+/// master gives up on it at the timeout, discards the rest before it sends again, and reads the
+/// retry's answer whole.
+#[test]
+fn an_answer_split_across_the_timeout_is_discarded_and_the_retry_succeeds() {
+    let (request, answer, config) = read_d000_one_retry();
     let mut uart = Mock::new(&[
         would_block(),
         Transaction::write_many(request.clone()),
         // Three bytes in time, then silence until the timeout.
-        Transaction::read_many(answer[..3].to_vec()),
+        Transaction::read_many(&answer[..3]),
         would_block(),
         would_block(),
         // The retry: the rest of the late answer is waiting, and is discarded.
-        Transaction::read_many(answer[3..].to_vec()),
+        Transaction::read_many(&answer[3..]),
         would_block(),
         Transaction::write_many(request),
         Transaction::read_many(answer),
@@ -572,8 +578,7 @@ fn an_answer_split_across_the_timeout_is_discarded_and_the_retry_succeeds() {
 /// sent for again.
 #[test]
 fn a_noise_burst_costs_at_most_the_answer_it_hit() {
-    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
-    let answer = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
+    let (request, answer, config) = read_d000_one_retry();
     let mut garbled = answer.clone();
     garbled[2] ^= 0x5A;
     garbled[4] ^= 0xA5;
@@ -581,10 +586,6 @@ fn a_noise_burst_costs_at_most_the_answer_it_hit() {
         Transaction::read_error(nb::Error::Other(
             embedded_hal_nb::serial::ErrorKind::FrameFormat,
         ))
-    };
-    let config = Config {
-        timeout_us: 1000,
-        retries: 1,
     };
     let mut uart = Mock::new(&[
         // Before the first transaction: a burst, discarded.
@@ -620,13 +621,8 @@ fn a_noise_burst_costs_at_most_the_answer_it_hit() {
 /// goes out again.
 #[test]
 fn an_answer_from_the_wrong_station_is_not_taken() {
-    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
+    let (request, answer, config) = read_d000_one_retry();
     let foreign = with_crc(vec![0x02, 0x03, 0x02, 0x12, 0x34]);
-    let answer = with_crc(vec![0x01, 0x03, 0x02, 0x00, 0x64]);
-    let config = Config {
-        timeout_us: 1000,
-        retries: 1,
-    };
     let mut uart = Mock::new(&[
         would_block(),
         Transaction::write_many(request.clone()),

@@ -11,8 +11,10 @@
 //! moves bytes and wakes the software task; every protocol decision is in the logic crates.
 //!
 //! The drive link (UART1 / USART2) is interrupt-driven too: its interrupt moves bytes between
-//! the UART and two queues ([`drive_uart`]); the drive application's Modbus master runs in the
-//! `link` task after each event, and never waits for the drive. On the QEMU board (feature
+//! the UART and two queues ([`drive_uart`]); the drive application's cycle (its Modbus master
+//! included) runs in the `link` task a step at a time whenever no frame waits, so a decision
+//! the transceiver waits for (new outputs above all) waits for one step, not a whole cycle;
+//! it never waits for the drive. On the QEMU board (feature
 //! `sim`) hal-sim says how many drive bytes have arrived (a simulation-only message); the task
 //! waits for them first, so the drive link runs on simulated time and repeats run to run, and
 //! it reports its instruction counts after each event, which hal-sim turns into board time.
@@ -182,24 +184,76 @@ macro_rules! adapter_app {
             async fn link(cx: link::Context, mut woken: Receiver<'static, (), 1>) {
                 let tx = cx.local.link_tx.as_mut().unwrap();
                 while woken.recv().await.is_ok() {
-                    while let Ok(grant) = cx.local.consumer.read() {
-                        let len = grant.len();
-                        let mut rest: &[u8] = &grant;
-                        loop {
-                            match cx.local.deframer.feed::<ToAdapter>(rest) {
-                                Fed::Pending => break,
-                                Fed::Dropped(r) => {
-                                    warn!("link: dropped a frame");
-                                    rest = r;
-                                }
-                                Fed::Message(message, r) => {
-                                    handle(cx.local.adapter, tx, cx.local.frame, &message);
-                                    rest = r;
+                    loop {
+                        // Every frame first: the decisions the transceiver waits for.
+                        if let Ok(grant) = cx.local.consumer.read() {
+                            let len = grant.len();
+                            let mut rest: &[u8] = &grant;
+                            loop {
+                                match cx.local.deframer.feed::<ToAdapter>(rest) {
+                                    Fed::Pending => break,
+                                    Fed::Dropped(r) => {
+                                        warn!("link: dropped a frame");
+                                        rest = r;
+                                    }
+                                    Fed::Message(message, r) => {
+                                        handle(cx.local.adapter, tx, cx.local.frame, &message);
+                                        rest = r;
+                                    }
                                 }
                             }
+                            grant.release(len);
+                            continue;
                         }
-                        grant.release(len);
+                        // The queue is empty: one step of the drive application's cycle, then
+                        // look again, so that an event waits for one step, not a whole cycle.
+                        if !cycle_step(cx.local.adapter, tx, cx.local.frame) {
+                            break;
+                        }
                     }
+                }
+            }
+
+            /// One step of the drive application's cycle, if one is due. Under simulation
+            /// hal-sim says when (`SimToAdapter::Continue`): only it knows whether an event
+            /// reached the MCU during the last step.
+            #[cfg(not(feature = "sim"))]
+            fn cycle_step(
+                slot: &mut Option<Adapter<crate::DriveApp>>,
+                tx: &mut board::Uart,
+                frame: &mut [u8; dp_link::MAX_FRAME_LEN],
+            ) -> bool {
+                let Some(adapter) = slot.as_mut().filter(|a| a.cycle_pending()) else {
+                    return false;
+                };
+                let before = (adapter.slave().state(), adapter.slave().address());
+                adapter.cycle_step(&mut |out| {
+                    if let Out::Write(write) = out {
+                        send(tx, frame, &write);
+                    }
+                });
+                log_changes(before, adapter);
+                true
+            }
+
+            #[cfg(feature = "sim")]
+            fn cycle_step(
+                _: &mut Option<Adapter<crate::DriveApp>>,
+                _: &mut board::Uart,
+                _: &mut [u8; dp_link::MAX_FRAME_LEN],
+            ) -> bool {
+                false
+            }
+
+            /// The slave's state and address changes, after the work they describe (not part
+            /// of the counts).
+            fn log_changes(before: (dp_slave::State, u8), adapter: &Adapter<crate::DriveApp>) {
+                let (state, address) = (adapter.slave().state(), adapter.slave().address());
+                if before.0 != state {
+                    info!("slave: {} -> {}", adapter::link_state(before.0), adapter::link_state(state));
+                }
+                if before.1 != address {
+                    info!("slave: address {=u8} -> {=u8}", before.1, address);
                 }
             }
 
@@ -232,10 +286,10 @@ macro_rules! adapter_app {
                     warn!("link: message before Boot");
                     return;
                 };
-                let (before, address) = (adapter.slave().state(), adapter.slave().address());
+                let before = (adapter.slave().state(), adapter.slave().address());
                 #[cfg(feature = "sim")]
                 let (mut writes, mut decision) = (0u32, (0u32, 0u32));
-                adapter.handle(message, &mut |out| match out {
+                let mut out = |out: Out| match out {
                     Out::Write(write) => {
                         send(tx, frame, &write);
                         #[cfg(feature = "sim")]
@@ -249,22 +303,25 @@ macro_rules! adapter_app {
                             decision = (board::cycles_since(start), writes);
                         }
                     }
-                });
-                let (state, new_address) = (adapter.slave().state(), adapter.slave().address());
+                };
+                match message {
+                    #[cfg(feature = "sim")]
+                    ToAdapter::Sim(dp_link::sim::SimToAdapter::Continue) => {
+                        adapter.cycle_step(&mut out);
+                    }
+                    _ => {
+                        adapter.decide(message, &mut out);
+                    }
+                }
                 #[cfg(feature = "sim")]
                 send(tx, frame, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Done {
                     decision_instructions: decision.0,
                     decision_writes: decision.1,
                     instructions: board::cycles_since(start),
                     drive_tx_bytes: adapter::Background::drive_tx_bytes(adapter.app()),
+                    cycle_pending: adapter.cycle_pending(),
                 }));
-                // The logs after the work they describe: not part of the counts.
-                if before != state {
-                    info!("slave: {} -> {}", adapter::link_state(before), adapter::link_state(state));
-                }
-                if new_address != address {
-                    info!("slave: address {=u8} -> {=u8}", address, new_address);
-                }
+                log_changes(before, adapter);
             }
 
             /// `frame` is the task's: a fresh zeroed frame per message cost more than encoding it.

@@ -11,7 +11,9 @@
 //!               replaced by a newer one: the newest outputs are all the MCU needs)
 //!                 ▼
 //!  MCU: interrupt entry, then the firmware handles events one at a time (its counted
-//!       instructions at the board's clock); drive answers interrupt it too
+//!       instructions at the board's clock); drive answers interrupt it too. The drive
+//!       application's cycle runs a step at a time when no event waits (`Continue`), so an
+//!       event waits for one step, not a whole cycle
 //!                 ▼
 //!  link from MCU: each write leaves when the firmware sent it, takes its bytes x byte time,
 //!                 and lands in the responder's buffers (or the LEDs, storage, timer)
@@ -109,6 +111,9 @@ pub struct Bridge<F: Firmware> {
     from_mcu: VecDeque<(u64, Write)>,
     from_mcu_free_ns: u64,
     mcu_free_ns: u64,
+    /// Steps of the drive application's cycle remain: the MCU runs the next when it is free
+    /// and no event waits.
+    cycle_pending: bool,
     /// The wake-up time a Timer event was sent for.
     timer_sent_for: Option<u64>,
     /// Wall-clock mode (`qemu-run` on a port): the firmware in QEMU cannot run ahead of the
@@ -158,6 +163,7 @@ impl<F: Firmware> Bridge<F> {
             from_mcu: VecDeque::new(),
             from_mcu_free_ns: 0,
             mcu_free_ns: 0,
+            cycle_pending: false,
             timer_sent_for: None,
             realtime: false,
             floor_ns: 0,
@@ -196,6 +202,7 @@ impl<F: Firmware> Bridge<F> {
         self.to_mcu_free_ns = now_ns;
         self.from_mcu_free_ns = now_ns;
         self.mcu_free_ns = now_ns;
+        self.cycle_pending = false;
         self.timer_sent_for = None;
         self.drive.adapter_restarted();
         self.boot(now_ns);
@@ -279,6 +286,7 @@ impl<F: Firmware> Bridge<F> {
             self.drive
                 .next_delivery_us()
                 .map(|us| (us * 1000).max(self.mcu_free_ns)),
+            self.cycle_pending.then_some(self.mcu_free_ns),
         ]
         .into_iter()
         .flatten()
@@ -337,8 +345,20 @@ impl<F: Firmware> Bridge<F> {
                 self.handle_event(l.max(self.floor_ns), e)
             }
             (_, Some(d)) if d <= t => self.handle_drive_answer(d.max(self.floor_ns)),
+            _ if self.cycle_pending && self.mcu_free_ns <= t => {
+                self.continue_cycle(self.mcu_free_ns.max(self.floor_ns))
+            }
             _ => Ok(()),
         }
+    }
+
+    /// No event waits: the MCU runs the next step of the drive application's cycle.
+    fn continue_cycle(&mut self, start_ns: u64) -> io::Result<()> {
+        let handled = self
+            .firmware
+            .exchange(&ToAdapter::Sim(SimToAdapter::Continue))?;
+        self.take(start_ns, &handled)?;
+        Ok(())
     }
 
     /// The MCU handles `e` from `start_ns`.
@@ -428,6 +448,7 @@ impl<F: Firmware> Bridge<F> {
         let done_ns =
             start_ns + self.board.instructions_ns(u64::from(handled.instructions)) + blocked_ns;
         self.mcu_free_ns = done_ns;
+        self.cycle_pending = handled.cycle_pending;
         // The bytes the firmware wrote to its drive UART go on the drive line when it is done.
         let sent = handled.drive_tx_bytes.wrapping_sub(self.drive.received);
         if sent > 0 {
@@ -491,9 +512,10 @@ impl<F: Firmware> Bridge<F> {
         &mut self.drive.drive
     }
 
-    /// Whether the transceiver holds nothing for the MCU and the MCU nothing for it.
+    /// Whether the transceiver holds nothing for the MCU, the MCU nothing for it, and the
+    /// drive application has no step of its cycle left.
     pub fn idle(&self) -> bool {
-        self.to_mcu.is_empty() && self.from_mcu.is_empty()
+        self.to_mcu.is_empty() && self.from_mcu.is_empty() && !self.cycle_pending
     }
 }
 
@@ -540,6 +562,7 @@ mod tests {
                 decision_instructions: self.decision,
                 instructions: self.total,
                 drive_tx_bytes: 0,
+                cycle_pending: false,
             })
         }
         fn restart(&mut self) -> io::Result<()> {

@@ -14,7 +14,7 @@
 //! before the `DriveBytes` message that tells the firmware how many have arrived: the lockstep
 //! that keeps the drive link on simulated time.
 
-use dp_link::sim::SimFromAdapter;
+use dp_link::sim::{SimFromAdapter, SimToAdapter};
 use dp_link::{FromAdapter, Regs, Status, ToAdapter, MAX_FRAME_LEN};
 use std::io::{self, Read, Write as _};
 use std::net::{TcpListener, TcpStream};
@@ -80,6 +80,9 @@ pub struct Handled {
     pub instructions: u32,
     /// Bytes sent to the drive UART since power-up.
     pub drive_tx_bytes: u32,
+    /// Steps of the drive application's cycle remain: the MCU runs the next one
+    /// ([`SimToAdapter::Continue`]) when no event waits.
+    pub cycle_pending: bool,
 }
 
 /// Something that handles link events.
@@ -163,12 +166,21 @@ impl Firmware for InProcess {
             .as_mut()
             .ok_or_else(|| io::Error::other("message before Boot"))?;
         let mut handled = Handled::default();
-        adapter.handle(message, &mut |out| match out {
+        let mut out = |out: adapter::Out| match out {
             adapter::Out::Write(write) => handled
                 .writes
                 .extend(Write::from_message(&write).map(|w| (0, w))),
             adapter::Out::DecisionWritten => handled.decision_writes = handled.writes.len(),
-        });
+        };
+        match message {
+            ToAdapter::Sim(SimToAdapter::Continue) => {
+                adapter.cycle_step(&mut out);
+            }
+            _ => {
+                adapter.decide(message, &mut out);
+            }
+        }
+        handled.cycle_pending = adapter.cycle_pending();
         handled.drive_tx_bytes = adapter::Background::drive_tx_bytes(adapter.app());
         Ok(handled)
     }
@@ -410,6 +422,7 @@ impl Firmware for Qemu {
                     decision_writes,
                     instructions,
                     drive_tx_bytes,
+                    cycle_pending,
                 })) => {
                     let decision_writes = (decision_writes as usize).min(unmarked.len());
                     handled.writes = unmarked
@@ -428,6 +441,7 @@ impl Firmware for Qemu {
                     handled.decision_instructions = decision_instructions;
                     handled.instructions = instructions;
                     handled.drive_tx_bytes = drive_tx_bytes;
+                    handled.cycle_pending = cycle_pending;
                     return Ok(handled);
                 }
                 Some(other) => unmarked.extend(Write::from_message(&other)),

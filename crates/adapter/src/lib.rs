@@ -58,11 +58,31 @@ pub fn drive_app<U: Read<u8> + Write<u8>>(uart: U) -> DriveApp<U> {
     )))
 }
 
+/// One step of the drive application's cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// Steps remain.
+    More,
+    /// The cycle is over; it must run again at this time at the latest, if ever.
+    Done(Option<u64>),
+}
+
 /// What runs beside the DP slave after every message: the drive application's own cycle.
 pub trait Background {
-    /// Runs at `now_us`; returns when it must run again at the latest, if ever.
-    fn run(&mut self, _now_us: u64) -> Option<u64> {
-        None
+    /// Runs the whole cycle at `now_us`; returns when it must run again at the latest, if ever.
+    fn run(&mut self, now_us: u64) -> Option<u64> {
+        let mut step = 0;
+        loop {
+            match self.run_step(now_us, step) {
+                Step::More => step += 1,
+                Step::Done(at) => return at,
+            }
+        }
+    }
+    /// Runs step `step` (0, 1, ...) of the cycle at `now_us`. The cycle is cut in steps so that
+    /// an event that needs the firmware's decision waits for one step, not a whole cycle.
+    fn run_step(&mut self, _now_us: u64, _step: u8) -> Step {
+        Step::Done(None)
     }
     /// Bytes written to the drive UART since power-up.
     fn drive_tx_bytes(&self) -> u32 {
@@ -95,15 +115,28 @@ pub trait CountsSent {
 impl Background for dp_slave::testing::EchoApp {}
 
 impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
-    fn run(&mut self, now_us: u64) -> Option<u64> {
+    fn run_step(&mut self, now_us: u64, step: u8) -> Step {
         let now = Instant::from_micros(now_us);
         // The images to the link, the link on, and what it just answered into the images,
         // so that the next data exchange carries it.
-        self.service(now);
-        self.drive_mut().poll(now_us);
-        sync_fieldbus_group(self);
-        self.service(now);
-        self.drive().poll_at()
+        match step {
+            0 => {
+                self.service(now);
+                Step::More
+            }
+            1 => {
+                self.drive_mut().poll(now_us);
+                Step::More
+            }
+            2 => {
+                sync_fieldbus_group(self);
+                Step::More
+            }
+            _ => {
+                self.service(now);
+                Step::Done(self.drive().poll_at())
+            }
+        }
     }
 
     fn drive_tx_bytes(&self) -> u32 {
@@ -289,6 +322,15 @@ pub enum Out<'a> {
 const BUFFER_LEN: usize = dp_consts::MAX_DATA_UNIT_LEN;
 type Buffer = heapless::Vec<u8, BUFFER_LEN>;
 
+/// Where the drive application's cycle stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CycleStep {
+    /// The application's own step `n` ([`Background::run_step`]).
+    App(u8),
+    /// The writes of what the cycle changed.
+    Write,
+}
+
 /// What the transceiver was last given, so that only changes cross the link.
 #[derive(Default)]
 struct Written {
@@ -320,6 +362,12 @@ pub struct Adapter<A> {
     malformed_telegrams: u16,
     /// When the background must run next.
     background_at: Option<u64>,
+    /// The drive application's cycle under way: its next step.
+    cycle: Option<CycleStep>,
+    /// An event asked for a cycle while one was under way: another follows.
+    cycle_again: bool,
+    /// The rate the application was last told (`Background::rate`).
+    rate_told: u8,
     /// The address the application was last told (`Background::station`).
     station_told: u8,
     /// The time of the last event (the LEDs' clock).
@@ -357,6 +405,9 @@ impl<A: Application + Background> Adapter<A> {
             // The background starts at once (the drive link loads the fieldbus group and keeps
             // the drive alive), not at the first telegram.
             background_at: Some(0),
+            cycle: None,
+            cycle_again: false,
+            rate_told: u8::MAX,
             station_told: addressing.address,
             now_us: 0,
             seen: 0,
@@ -381,11 +432,18 @@ impl<A: Application + Background> Adapter<A> {
         &mut self.slave.app_mut().inner
     }
 
-    /// Handles one event (a Boot included: the caller built this adapter for it): the slave's
-    /// decision, its writes, [`Out::DecisionWritten`], then (but after new outputs, which
-    /// only fill the process image) the drive application's cycle, its writes, and last the
-    /// status if it changed.
+    /// Handles one event and then the whole drive application's cycle it asks for (see
+    /// [`Adapter::decide`] and [`Adapter::cycle_step`]), for a caller that schedules nothing.
     pub fn handle(&mut self, message: &ToAdapter, out: &mut dyn FnMut(Out)) {
+        self.decide(message, out);
+        while self.cycle_step(out) {}
+    }
+
+    /// Handles one event (a Boot included: the caller built this adapter for it): the slave's
+    /// decision, its writes, [`Out::DecisionWritten`]; then (but after new outputs, which only
+    /// fill the process image) a cycle of the drive application is due, run by
+    /// [`Adapter::cycle_step`] when no event waits. Returns whether a cycle is due.
+    pub fn decide(&mut self, message: &ToAdapter, out: &mut dyn FnMut(Out)) -> bool {
         let now_us = message.now_us();
         self.now_us = now_us;
         let now = Instant::from_micros(now_us);
@@ -406,7 +464,10 @@ impl<A: Application + Background> Adapter<A> {
                     Ok((request, _)) => {
                         new_outputs = self.is_new_outputs(&request);
                         decided = !new_outputs;
-                        self.slave.app_mut().inner.rate(baud);
+                        if baud != self.rate_told {
+                            self.rate_told = baud;
+                            self.slave.app_mut().inner.rate(baud);
+                        }
                         self.slave.process_fresh(now, &request);
                     }
                     Err(_) => {
@@ -428,14 +489,61 @@ impl<A: Application + Background> Adapter<A> {
         }
         self.write_buffers(now, decided, out);
         out(Out::DecisionWritten);
-        if new_outputs {
-            // The process image holds them; the drive application's cycle runs on the drive's
-            // answers and its wake-ups, and its next PZD transaction takes them. Running it
-            // here would only keep the MCU from the next event.
-            return;
+        let shown = self.written.status.map(|s| (s.state, s.address));
+        if !new_outputs && shown != Some((link_state(self.slave.state()), self.slave.address())) {
+            // A new state or address (Set_Prm, Chk_Cfg, Set_Slave_Add) is out before the
+            // cycle runs. The drive link's LEDs are the cycle's to change: they keep what the
+            // last cycle showed, or they would go out for the length of a cycle.
+            self.write_status(out, false);
         }
+        // New outputs only fill the process image: the drive application's cycle runs on the
+        // drive's answers and its wake-ups, and its next PZD transaction takes them. Every
+        // other event asks for a cycle.
+        if !new_outputs {
+            if self.cycle.is_some() {
+                self.cycle_again = true;
+            } else {
+                self.cycle = Some(CycleStep::App(0));
+            }
+        }
+        self.cycle.is_some()
+    }
 
-        self.background_at = self.slave.app_mut().inner.run(now_us);
+    /// Whether a cycle of the drive application is under way or due.
+    pub fn cycle_pending(&self) -> bool {
+        self.cycle.is_some()
+    }
+
+    /// Runs the next step of the drive application's cycle, at the last event's time: its
+    /// steps, then the writes of what it changed and the status. Returns whether steps remain.
+    pub fn cycle_step(&mut self, out: &mut dyn FnMut(Out)) -> bool {
+        let Some(step) = self.cycle else {
+            return false;
+        };
+        let now_us = self.now_us;
+        self.cycle = match step {
+            CycleStep::App(n) => match self.slave.app_mut().inner.run_step(now_us, n) {
+                Step::More => Some(CycleStep::App(n.saturating_add(1))),
+                Step::Done(at) => {
+                    self.background_at = at;
+                    Some(CycleStep::Write)
+                }
+            },
+            CycleStep::Write => {
+                self.write_cycle(out);
+                if core::mem::take(&mut self.cycle_again) {
+                    Some(CycleStep::App(0))
+                } else {
+                    None
+                }
+            }
+        };
+        self.cycle.is_some()
+    }
+
+    /// The end of a cycle: what the drive application changed goes to the transceiver.
+    fn write_cycle(&mut self, out: &mut dyn FnMut(Out)) {
+        let now = Instant::from_micros(self.now_us);
         if let Some(address) = self.slave.app_mut().inner.requested_station() {
             self.readdress(now, address);
         }
@@ -446,7 +554,17 @@ impl<A: Application + Background> Adapter<A> {
             self.slave.app_mut().inner.station(address);
         }
         self.write_buffers(now, false, out);
-        let status = self.status();
+        self.write_status(out, true);
+    }
+
+    /// The status, if it changed (or the storage must be written); `drive_leds`: with the
+    /// drive link's LEDs as they are now, else as last written.
+    fn write_status(&mut self, out: &mut dyn FnMut(Out), drive_leds: bool) {
+        let mut status = self.status();
+        if let Some(written) = self.written.status.filter(|_| !drive_leds) {
+            status.leds.tx = written.leds.tx;
+            status.leds.rx = written.leds.rx;
+        }
         let unchanged = self.written.status.is_some_and(|s| {
             Status {
                 outputs_applied: status.outputs_applied,
@@ -729,12 +847,13 @@ mod tests {
         let w = handle(&mut adapter, &telegram(2, &t));
         let regs = w.regs.last().expect("registers after a decision");
         assert_eq!((regs.seen, regs.address), (2, 42));
+        let stored: Vec<_> = w.status.iter().filter_map(|s| s.nv_write).collect();
         assert_eq!(
-            w.status.last().and_then(|s| s.nv_write),
-            Some(NvRecord {
+            stored,
+            [NvRecord {
                 address: 42,
                 no_add_chg: false
-            })
+            }]
         );
         let w = handle(
             &mut adapter,
@@ -802,6 +921,56 @@ mod tests {
             &ToAdapter::WatchdogExpired { seq: 3, now_us: 20 },
         );
         assert_eq!(w.regs.len(), 1);
+    }
+
+    /// A Data_Exchange request from master 2 to `address` with `outputs`.
+    fn data_exchange(address: u8, fcb: bool, outputs: &[u8]) -> Vec<u8> {
+        let repr = fdl::Repr::Data(fdl::DataRepr {
+            da: address,
+            sa: 2,
+            dsap: None,
+            ssap: None,
+            fc: fdl::FrameControl::Request {
+                fcb,
+                fcv: true,
+                function: fdl::RequestFunction::SrdHigh,
+            },
+            payload: outputs,
+        });
+        let mut bytes = vec![0; repr.buffer_len()];
+        repr.emit(&mut bytes).unwrap();
+        bytes
+    }
+
+    #[test]
+    fn the_cycle_runs_a_step_at_a_time_and_new_outputs_ask_for_none() {
+        let mut adapter = booted(8, EchoApp::default());
+        let mut writes = Vec::new();
+        let mut out = |o: Out| {
+            if let Out::Write(w) = o {
+                writes.push(format!("{w:?}"));
+            }
+        };
+        // Set_Prm: the decision (registers) and the new state, then a cycle is due.
+        assert!(adapter.decide(&telegram(2, &set_prm(8, 0, false)), &mut out));
+        // EchoApp's cycle is one step, then the cycle's writes.
+        assert!(adapter.cycle_step(&mut out));
+        // An event during the cycle asks for another one after it.
+        assert!(adapter.decide(&ToAdapter::Timer { seq: 3, now_us: 10 }, &mut out));
+        assert!(adapter.cycle_step(&mut out), "the next cycle follows");
+        assert!(adapter.cycle_step(&mut out));
+        assert!(!adapter.cycle_step(&mut out));
+        assert!(!adapter.cycle_pending());
+        // Chk_Cfg (one byte out, one in), then new outputs: they only fill the process image.
+        let chk_cfg = request(8, fdl::Sap::CHK_CFG, true, &[0x30]);
+        assert!(adapter.decide(&telegram(4, &chk_cfg), &mut out));
+        while adapter.cycle_step(&mut out) {}
+        assert_eq!(adapter.slave().state(), State::DataExch);
+        assert!(!adapter.decide(&telegram(5, &data_exchange(8, true, &[0x0F])), &mut out));
+        assert_eq!(adapter.app().outputs, [0x0F]);
+        assert!(!adapter.cycle_pending());
+        drop(out);
+        assert!(writes.iter().any(|w| w.contains("DataExch")), "{writes:?}");
     }
 
     #[test]

@@ -87,7 +87,8 @@ impl ToAdapter<'_> {
         }
     }
 
-    /// The transceiver's time of the event.
+    /// The transceiver's time of the event (0 for [`sim::SimToAdapter::Continue`], which is
+    /// not one: the step it runs keeps the last event's time).
     pub fn now_us(&self) -> u64 {
         match *self {
             ToAdapter::Boot { now_us, .. }
@@ -96,6 +97,8 @@ impl ToAdapter<'_> {
             | ToAdapter::Timer { now_us, .. } => now_us,
             #[cfg(feature = "sim")]
             ToAdapter::Sim(sim::SimToAdapter::DriveBytes { now_us, .. }) => now_us,
+            #[cfg(feature = "sim")]
+            ToAdapter::Sim(sim::SimToAdapter::Continue) => 0,
         }
     }
 }
@@ -163,6 +166,10 @@ pub mod sim {
         /// The simulated drive has sent `drive_rx_bytes` bytes since power-up, all of which
         /// are in the MCU's drive UART when this is handled.
         DriveBytes { now_us: u64, drive_rx_bytes: u32 },
+        /// No frame is waiting: run the next step of the drive application's cycle. On a
+        /// board the firmware decides this itself (its link queue is empty); under simulation
+        /// only hal-sim knows whether an event reached the MCU during the last step.
+        Continue,
     }
 
     #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,13 +177,15 @@ pub mod sim {
     pub enum SimFromAdapter {
         /// The message is handled, after `instructions`. Its first `decision_writes` writes
         /// (the decision's) were all handed to the link after `decision_instructions`;
-        /// `drive_tx_bytes` bytes have gone to the drive UART since power-up. One mark at the
-        /// end, so that the simulation's own messages cost the counts nothing.
+        /// `drive_tx_bytes` bytes have gone to the drive UART since power-up; `cycle_pending`:
+        /// steps of the drive application's cycle remain ([`SimToAdapter::Continue`]). One
+        /// mark at the end, so that the simulation's own messages cost the counts nothing.
         Done {
             decision_instructions: u32,
             decision_writes: u32,
             instructions: u32,
             drive_tx_bytes: u32,
+            cycle_pending: bool,
         },
     }
 }
@@ -379,6 +388,7 @@ mod tests {
                 now_us: 1,
                 drive_rx_bytes: u32::MAX,
             }),
+            ToAdapter::Sim(sim::SimToAdapter::Continue),
         ];
         let mut stream = Vec::new();
         for m in &messages {
@@ -432,6 +442,7 @@ mod tests {
                 decision_writes: u32::MAX,
                 instructions: u32::MAX,
                 drive_tx_bytes: u32::MAX,
+                cycle_pending: true,
             }),
         ];
         for write in writes {

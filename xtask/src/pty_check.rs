@@ -1,9 +1,11 @@
-//! `qemu-run --port pty --check SECONDS`: an independent DP master (profirust, PPO1, a 300 ms
-//! watchdog) on the pty's other end, polling as fast as it can in real time, with a burst of
-//! random bytes written between its telegrams every so often. It reports the cycles, how often
-//! the slave left data exchange (a watchdog expiry or a reparameterisation), and whether the
-//! inputs followed the outputs (the echo through the drive); it fails the run if the slave
-//! left data exchange once it was there, or never got there.
+//! `qemu-run --port pty --check SECONDS [--ppo N]`: an independent DP master (profirust, PPO1
+//! or the PPO given, a 300 ms watchdog) on the pty's other end, polling as fast as it can in
+//! real time, with 100 bursts of random bytes written between its telegrams, spread over the
+//! run. It reports the cycles, how often the slave left data exchange (a watchdog expiry or a
+//! reparameterisation), and whether the inputs followed the outputs through the drive the
+//! whole time: the set frequency steps every 0.5 s, so the actual frequency (the inputs'
+//! second PZD) must move in every 2-second window. It fails the run if the slave left data
+//! exchange once it was there, never got there, or stopped following.
 
 use anyhow::{bail, Result};
 use profidrive::ppo::Ppo;
@@ -56,23 +58,32 @@ impl ProfibusPhy for PtyPhy {
     }
 }
 
+/// Bursts of junk the check writes, spread over the run.
+pub const BURSTS: u64 = 100;
+/// The window in which the actual frequency must move.
+const FOLLOW_WINDOW: Duration = Duration::from_secs(2);
+
 /// The check's figures.
 pub struct CheckReport {
     pub cycles: u64,
     pub left_data_exchange: u64,
     pub bursts: u64,
-    pub inputs_seen_changing: bool,
+    /// The actual frequency moved, and never stood still longer than the window.
+    pub inputs_followed: bool,
+    pub longest_still: Duration,
 }
 
 /// Runs the master on `port` (the pty's slave end) against the adapter at `address` for
 /// `seconds`; `stop` is polled so that the caller can end it.
-pub fn run(port: TTYPort, address: u8, seconds: f64) -> Result<CheckReport> {
+pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckReport> {
     let mut phy = PtyPhy {
         port,
         received: Vec::new(),
     };
     let mut dp = DpMaster::new(vec![]);
-    let ppo = Ppo::Ppo1;
+    // The PZD follow the PKW where there is one: PZD1 the control or status word, PZD2 the
+    // set or actual frequency.
+    let pzd = if ppo.has_pkw() { 8 } else { 0 };
     let user_prm: &'static [u8] = hal_sim::cosim::echo_user_prm().encode().to_vec().leak();
     let handle = dp.add(Peripheral::new(
         address,
@@ -83,8 +94,8 @@ pub fn run(port: TTYPort, address: u8, seconds: f64) -> Result<CheckReport> {
             fail_safe: true,
             ..Default::default()
         },
-        vec![0u8; 12],
-        vec![0u8; 12],
+        vec![0u8; ppo.io_bytes()],
+        vec![0u8; ppo.io_bytes()],
     ));
     let mut fdl = FdlActiveStation::new(
         // A pty has no bit timing: profirust's timing at 187.5 kbit/s, with a slot time of 1000
@@ -101,7 +112,9 @@ pub fn run(port: TTYPort, address: u8, seconds: f64) -> Result<CheckReport> {
     let start = Instant::now();
     let (mut cycles, mut left, mut bursts) = (0u64, 0u64, 0u64);
     let mut running = false;
-    let mut first_inputs: Option<Vec<u8>> = None;
+    // When the actual frequency last moved, and the longest it stood still in data exchange.
+    let (mut last_actual, mut moved_at) = (None::<u16>, Instant::now());
+    let mut longest_still = Duration::ZERO;
     let mut inputs_changed = false;
     while start.elapsed().as_secs_f64() < seconds {
         let now = profirust::time::Instant::from_micros(start.elapsed().as_micros() as i64);
@@ -112,23 +125,29 @@ pub fn run(port: TTYPort, address: u8, seconds: f64) -> Result<CheckReport> {
         if running && !now_running {
             left += 1;
         }
+        if !running && now_running {
+            moved_at = Instant::now();
+        }
         running = now_running;
         if events.cycle_completed && now_running {
             cycles += 1;
-            // The echo program's outputs: run, PZD2 a set frequency that steps.
-            let mut outputs = [0u8; 12];
+            // The echo program's outputs: run, PZD2 a set frequency that steps every 0.5 s.
+            let outputs = peripheral.pi_q_mut();
             let cw = hal_sim::cosim::ECHO_CONTROL_WORD.to_be_bytes();
-            outputs[8..10].copy_from_slice(&cw);
-            let f = ((cycles / 50) % 49 + 1) as u16 * 100;
-            outputs[10..12].copy_from_slice(&f.to_be_bytes());
-            peripheral.pi_q_mut().copy_from_slice(&outputs);
-            let inputs = peripheral.pi_i().to_vec();
-            match &first_inputs {
-                None => first_inputs = Some(inputs),
-                Some(first) => inputs_changed |= *first != inputs,
+            outputs[pzd..pzd + 2].copy_from_slice(&cw);
+            let f = ((start.elapsed().as_millis() / 500) % 49 + 1) as u16 * 100;
+            outputs[pzd + 2..pzd + 4].copy_from_slice(&f.to_be_bytes());
+            let inputs = peripheral.pi_i();
+            let actual = u16::from_be_bytes([inputs[pzd + 2], inputs[pzd + 3]]);
+            if last_actual.is_some_and(|a| a != actual) {
+                inputs_changed = true;
+                moved_at = Instant::now();
             }
-            // Every 100th cycle, a burst of junk between two telegrams (at most 100 bursts).
-            if cycles % 100 == 0 && bursts < 100 {
+            last_actual = Some(actual);
+            longest_still = longest_still.max(moved_at.elapsed());
+            // A burst of junk between two telegrams, BURSTS of them spread over the run.
+            let due = (start.elapsed().as_secs_f64() / seconds * (BURSTS + 1) as f64) as u64;
+            if bursts < BURSTS && bursts < due {
                 let len = rng.gen_range(1..64);
                 let junk: Vec<u8> = (0..len).map(|_| rng.gen()).collect();
                 let _ = phy.port.write_all(&junk);
@@ -144,6 +163,7 @@ pub fn run(port: TTYPort, address: u8, seconds: f64) -> Result<CheckReport> {
         cycles,
         left_data_exchange: left,
         bursts,
-        inputs_seen_changing: inputs_changed,
+        inputs_followed: inputs_changed && longest_still <= FOLLOW_WINDOW,
+        longest_still,
     })
 }

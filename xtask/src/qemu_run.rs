@@ -7,12 +7,14 @@
 //!   opens it. `--port /dev/ttyUSB0` (any device): a real port, e.g. a PLC behind a USB-RS485
 //!   converter. On a port there is no bit timing: telegrams are delimited by start delimiter
 //!   and length (`hal_sim::serial`); `--baud` sets the port's rate (default 19200).
-//! - `--check N` (with `--port pty`): an independent DP master (profirust) on the pty's other
-//!   end for N seconds, with bursts of random bytes between its telegrams; the run fails if
-//!   the slave leaves data exchange once there (`crate::pty_check`).
+//! - `--check N [--ppo P]` (with `--port pty`): an independent DP master (profirust, PPO1 or
+//!   P) on the pty's other end for N seconds, with 100 bursts of random bytes between its
+//!   telegrams; the run fails if the slave leaves data exchange once there, its watchdog
+//!   expires, it is parameterised again, or its inputs stop following the outputs
+//!   (`crate::pty_check`).
 //! - `--switch N`: the address switch (default 8); `--seconds N`: stop after N seconds of
-//!   wall time (default: until Ctrl-C or SIGTERM, which stop QEMU and print a summary).
-//!
+//!   wall time (default: until Ctrl-C or SIGTERM, which stop QEMU and print a summary, QEMU's
+//!   CPU time included).
 //! - `--pty-link PATH` (with `--port pty`): where the stable symlink to the pty goes (default
 //!   `target/qemu-run.pty`), so that a master's configuration names one path from run to run.
 //!   Only a symlink is ever replaced there, and it is removed at the end of the run.
@@ -74,8 +76,19 @@ pub fn run(args: &[String]) -> Result<()> {
             "--seconds",
             "--check",
             "--pty-link",
+            "--ppo",
         ],
     )?;
+    let ppo = match flag_value(args, "--ppo")? {
+        None => profidrive::ppo::Ppo::Ppo1,
+        Some(n) => {
+            let n: u8 = n.parse().context("--ppo takes a PPO number, 1-6")?;
+            profidrive::ppo::Ppo::ALL
+                .into_iter()
+                .find(|p| p.number() == n)
+                .with_context(|| format!("--ppo {n}: no such PPO (1-6)"))?
+        }
+    };
     let pty_link = flag_value(args, "--pty-link")?.map(std::path::PathBuf::from);
     if pty_link.is_some() && flag_value(args, "--port")? != Some("pty") {
         bail!("--pty-link names a link to the pty: use it with --port pty");
@@ -86,6 +99,12 @@ pub fn run(args: &[String]) -> Result<()> {
         .context("--check takes seconds")?;
     if check.is_some() && flag_value(args, "--port")? != Some("pty") {
         bail!("--check runs a master on the pty: use it with --port pty");
+    }
+    if check.is_none() && flag_value(args, "--ppo")?.is_some() {
+        bail!("--ppo is the check's master's PPO: use it with --check");
+    }
+    if check.is_none() && flag_value(args, "--ppo")?.is_some() {
+        bail!("--ppo is the check's master's PPO: use it with --check");
     }
     let switch: u8 = flag_value(args, "--switch")?
         .unwrap_or("8")
@@ -106,7 +125,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let qemu = ensure_qemu()?;
     println!("qemu-run: building the firmware (release, lm3s6965evb)...");
     let elf = build(&IMAGES[0])?;
-    let firmware = Qemu::start(&qemu, &elf).context("starting QEMU")?;
+    let firmware = Qemu::start_realtime(&qemu, &elf).context("starting QEMU")?;
     let stop_at = seconds
         .or(check.map(|c| c + 2.0))
         .map(Duration::from_secs_f64);
@@ -115,7 +134,15 @@ pub fn run(args: &[String]) -> Result<()> {
         Some(port) => {
             let link =
                 pty_link.unwrap_or_else(|| crate::project_root().join("target/qemu-run.pty"));
-            serial_port(firmware, switch, port, port_baud, stop_at, check, &link)
+            serial_port(
+                firmware,
+                switch,
+                port,
+                port_baud,
+                stop_at,
+                check.map(|s| (s, ppo)),
+                &link,
+            )
         }
     }
 }
@@ -209,7 +236,7 @@ fn serial_port(
     port: &str,
     baud: u32,
     stop_at: Option<Duration>,
-    check: Option<f64>,
+    check: Option<(f64, profidrive::ppo::Ppo)>,
     pty_link: &std::path::Path,
 ) -> Result<()> {
     let dp_baud = Baud::ALL
@@ -232,10 +259,10 @@ fn serial_port(
             pty_link.display()
         );
         match check {
-            Some(seconds) => {
+            Some((seconds, ppo)) => {
                 let address = adapter.bridge.status.address;
                 checker = Some(std::thread::spawn(move || {
-                    crate::pty_check::run(slave, address, seconds)
+                    crate::pty_check::run(slave, address, seconds, ppo)
                 }));
             }
             None => _pty_other_end = Some(slave),
@@ -324,16 +351,36 @@ fn serial_port(
                 adapter.skipped_bytes,
                 link_errors,
             );
+            if let Some(cpu) = adapter.bridge.firmware.cpu_seconds() {
+                let wall = start.elapsed().as_secs_f64();
+                println!(
+                    "qemu-run: qemu_cpu_seconds={cpu:.1} of {wall:.1} s ({:.0} % of one core)",
+                    100.0 * cpu / wall
+                );
+            }
             if let Some(checker) = checker {
                 let r = checker
                     .join()
                     .map_err(|_| anyhow::anyhow!("the check's master panicked"))??;
                 println!(
-                    "qemu-run check: cycles={} left_data_exchange={} bursts={} inputs_followed={}",
-                    r.cycles, r.left_data_exchange, r.bursts, r.inputs_seen_changing
+                    "qemu-run check: cycles={} left_data_exchange={} bursts={} inputs_followed={} (longest still {} ms)",
+                    r.cycles,
+                    r.left_data_exchange,
+                    r.bursts,
+                    r.inputs_followed,
+                    r.longest_still.as_millis()
                 );
-                if r.left_data_exchange > 0 || !r.inputs_seen_changing {
-                    bail!("the slave left data exchange, or its inputs never followed the outputs");
+                if r.left_data_exchange > 0
+                    || f.watchdog_expiries > 0
+                    || f.set_prms > 1
+                    || r.bursts < crate::pty_check::BURSTS
+                    || !r.inputs_followed
+                {
+                    bail!(
+                        "the check failed: the slave left data exchange, its watchdog expired, it \
+                         was parameterised again, a burst was not written, or its inputs stopped \
+                         following the outputs"
+                    );
                 }
             }
             return Ok(());

@@ -18,6 +18,8 @@
 //! - `--pty-link PATH` (with `--port pty`): where the stable symlink to the pty goes (default
 //!   `target/qemu-run.pty`), so that a master's configuration names one path from run to run.
 //!   Only a symlink is ever replaced there, and it is removed at the end of the run.
+//! - `--log`: the firmware's defmt log, decoded (with the table of the image QEMU runs), a line
+//!   as each comes, between the status lines.
 //!
 //! The status line rewrites itself on a terminal and prints a line each time otherwise (a log
 //! file holds lines).
@@ -57,8 +59,54 @@ fn status(line: &str) -> Result<()> {
     Ok(())
 }
 
-/// QEMU must still run: if it died, say so instead of showing a frozen status.
-fn check_alive(firmware: &mut Qemu) -> Result<()> {
+/// The firmware's defmt log, printed as it comes (`--log`).
+struct LiveLog {
+    table: defmt_decoder::Table,
+    /// The stream's bytes and lines printed so far (both start again after a power cycle).
+    bytes: usize,
+    lines: usize,
+}
+
+impl LiveLog {
+    fn new(elf: &std::path::Path) -> Result<LiveLog> {
+        let table = defmt_decoder::Table::parse(&std::fs::read(elf)?)?
+            .context("the firmware image has no defmt table")?;
+        Ok(LiveLog {
+            table,
+            bytes: 0,
+            lines: 0,
+        })
+    }
+
+    /// Prints the lines that came since the last call. The stream is decoded whole each time
+    /// (a frame may end in the next call's bytes); the log is a few lines a minute.
+    fn print_new(&mut self, firmware: &Qemu) -> Result<()> {
+        let bytes = firmware.defmt_bytes();
+        if bytes.len() < self.bytes {
+            self.lines = 0;
+        }
+        if bytes.len() == self.bytes {
+            return Ok(());
+        }
+        self.bytes = bytes.len();
+        let lines = crate::qemu_test::decode(&self.table, &bytes)?;
+        let mut out = std::io::stdout();
+        for (level, message) in lines.iter().skip(self.lines) {
+            // On a terminal, over the status line; it is written again next time.
+            let start = if out.is_terminal() { "\r" } else { "" };
+            writeln!(out, "{start}firmware: {level:<5} {message}")?;
+        }
+        self.lines = lines.len();
+        Ok(())
+    }
+}
+
+/// QEMU must still run: if it died, say so instead of showing a frozen status. With `--log`,
+/// the firmware's new log lines.
+fn check_alive(firmware: &mut Qemu, log: &mut Option<LiveLog>) -> Result<()> {
+    if let Some(log) = log {
+        log.print_new(firmware)?;
+    }
     if let Some(exit) = firmware.exit_status()? {
         bail!("QEMU exited ({exit}): the firmware stopped; its log is in the run's defmt stream");
     }
@@ -68,7 +116,7 @@ fn check_alive(firmware: &mut Qemu) -> Result<()> {
 pub fn run(args: &[String]) -> Result<()> {
     check_flags(
         args,
-        &[],
+        &["--log"],
         &[
             "--port",
             "--baud",
@@ -126,22 +174,30 @@ pub fn run(args: &[String]) -> Result<()> {
     println!("qemu-run: building the firmware (release, lm3s6965evb)...");
     let elf = build(&IMAGES[0])?;
     let firmware = Qemu::start_realtime(&qemu, &elf).context("starting QEMU")?;
+    let log = if args.iter().any(|a| a == "--log") {
+        Some(LiveLog::new(&elf)?)
+    } else {
+        None
+    };
     let stop_at = seconds
         .or(check.map(|c| c + 2.0))
         .map(Duration::from_secs_f64);
     match flag_value(args, "--port")? {
-        None => simulated_bus(firmware, switch, stop_at),
+        None => simulated_bus(firmware, switch, stop_at, log),
         Some(port) => {
             let link =
                 pty_link.unwrap_or_else(|| crate::project_root().join("target/qemu-run.pty"));
             serial_port(
                 firmware,
                 switch,
-                port,
-                port_baud,
-                stop_at,
-                check.map(|s| (s, ppo)),
-                &link,
+                PortRun {
+                    port,
+                    baud: port_baud,
+                    stop_at,
+                    check: check.map(|s| (s, ppo)),
+                    pty_link: &link,
+                    log,
+                },
             )
         }
     }
@@ -189,7 +245,12 @@ fn drive_line(drive: &DriveSim, link_error: u8) -> String {
     )
 }
 
-fn simulated_bus(firmware: Qemu, switch: u8, stop_at: Option<Duration>) -> Result<()> {
+fn simulated_bus(
+    firmware: Qemu,
+    switch: u8,
+    stop_at: Option<Duration>,
+    mut log: Option<LiveLog>,
+) -> Result<()> {
     let mut sim = CoSim::new(firmware, switch, None)?;
     let address = sim.bridge.status.address;
     sim.start_master(MasterSetup::new(Baud::B1500000, address));
@@ -216,7 +277,7 @@ fn simulated_bus(firmware: Qemu, switch: u8, stop_at: Option<Duration>) -> Resul
                 "[{:>7.1} s] {state:?} addr {addr} DX cycles {cycles} {drive}",
                 sim_time.as_secs_f64()
             ))?;
-            check_alive(&mut sim.bridge.firmware)?;
+            check_alive(&mut sim.bridge.firmware, &mut log)?;
         }
         if stop.load(Ordering::SeqCst) || stop_at.is_some_and(|s| start.elapsed() >= s) {
             let cycles = sim.master.as_ref().map_or(0, |m| m.cycles);
@@ -230,15 +291,25 @@ fn simulated_bus(firmware: Qemu, switch: u8, stop_at: Option<Duration>) -> Resul
     }
 }
 
-fn serial_port(
-    firmware: Qemu,
-    switch: u8,
-    port: &str,
+/// What a run on a port was asked for.
+struct PortRun<'a> {
+    port: &'a str,
     baud: u32,
     stop_at: Option<Duration>,
     check: Option<(f64, profidrive::ppo::Ppo)>,
-    pty_link: &std::path::Path,
-) -> Result<()> {
+    pty_link: &'a std::path::Path,
+    log: Option<LiveLog>,
+}
+
+fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
+    let PortRun {
+        port,
+        baud,
+        stop_at,
+        check,
+        pty_link,
+        mut log,
+    } = run;
     let dp_baud = Baud::ALL
         .into_iter()
         .find(|b| b.bits_per_second() == baud)
@@ -334,7 +405,7 @@ fn serial_port(
                 adapter.responses,
                 drive_line(&adapter.bridge.drive.drive, s.drive_link_error)
             ))?;
-            check_alive(&mut adapter.bridge.firmware)?;
+            check_alive(&mut adapter.bridge.firmware, &mut log)?;
         }
         let checked = checker.as_ref().is_some_and(|c| c.is_finished());
         if checked || stop.load(Ordering::SeqCst) || stop_at.is_some_and(|s| start.elapsed() >= s) {

@@ -239,7 +239,7 @@ fn run_one(
 }
 
 /// The defmt frames of one QEMU run, as (level, message).
-fn decode(table: &defmt_decoder::Table, bytes: &[u8]) -> Result<Vec<(String, String)>> {
+pub(crate) fn decode(table: &defmt_decoder::Table, bytes: &[u8]) -> Result<Vec<(String, String)>> {
     let mut decoder = table.new_stream_decoder();
     decoder.received(bytes);
     let mut lines = Vec::new();

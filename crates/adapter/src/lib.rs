@@ -969,7 +969,6 @@ mod tests {
         assert!(!adapter.decide(&telegram(5, &data_exchange(8, true, &[0x0F])), &mut out));
         assert_eq!(adapter.app().outputs, [0x0F]);
         assert!(!adapter.cycle_pending());
-        drop(out);
         assert!(writes.iter().any(|w| w.contains("DataExch")), "{writes:?}");
     }
 

@@ -68,6 +68,10 @@ pub struct CheckReport {
     pub cycles: u64,
     pub left_data_exchange: u64,
     pub bursts: u64,
+    /// The junk bytes the bursts wrote, and the longest request the master sends in data
+    /// exchange (what a burst may cost besides itself).
+    pub junk_bytes: u64,
+    pub data_exchange_request_len: u64,
     /// The actual frequency moved, and never stood still longer than the window.
     pub inputs_followed: bool,
     pub longest_still: Duration,
@@ -110,7 +114,7 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
     dp.enter_operate();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5EED);
     let start = Instant::now();
-    let (mut cycles, mut left, mut bursts) = (0u64, 0u64, 0u64);
+    let (mut cycles, mut left, mut bursts, mut junk_bytes) = (0u64, 0u64, 0u64, 0u64);
     let mut running = false;
     // When the actual frequency last moved, and the longest it stood still in data exchange.
     let (mut last_actual, mut moved_at) = (None::<u16>, Instant::now());
@@ -152,6 +156,7 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
                 let junk: Vec<u8> = (0..len).map(|_| rng.gen()).collect();
                 let _ = phy.port.write_all(&junk);
                 bursts += 1;
+                junk_bytes += len as u64;
             }
         }
         std::thread::sleep(Duration::from_micros(100));
@@ -163,6 +168,9 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
         cycles,
         left_data_exchange: left,
         bursts,
+        junk_bytes,
+        // SD2, LE, LEr, SD2, DA, SA, FC, the outputs, FCS, ED.
+        data_exchange_request_len: 9 + ppo.io_bytes() as u64,
         inputs_followed: inputs_changed && longest_still <= FOLLOW_WINDOW,
         longest_still,
     })

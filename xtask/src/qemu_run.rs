@@ -433,11 +433,18 @@ fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
                 let r = checker
                     .join()
                     .map_err(|_| anyhow::anyhow!("the check's master panicked"))??;
+                // Bytes of the master's own telegrams skipped: each burst may cost at most the
+                // telegram it hit.
+                let lost = adapter.skipped_bytes.saturating_sub(r.junk_bytes);
+                let lost_bound = r.bursts * r.data_exchange_request_len;
                 println!(
-                    "qemu-run check: cycles={} left_data_exchange={} bursts={} inputs_followed={} (longest still {} ms)",
+                    "qemu-run check: cycles={} left_data_exchange={} bursts={} junk_bytes={} telegram_bytes_lost={} (at most {}) inputs_followed={} (longest still {} ms)",
                     r.cycles,
                     r.left_data_exchange,
                     r.bursts,
+                    r.junk_bytes,
+                    lost,
+                    lost_bound,
                     r.inputs_followed,
                     r.longest_still.as_millis()
                 );
@@ -445,12 +452,13 @@ fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
                     || f.watchdog_expiries > 0
                     || f.set_prms > 1
                     || r.bursts < crate::pty_check::BURSTS
+                    || lost > lost_bound
                     || !r.inputs_followed
                 {
                     bail!(
                         "the check failed: the slave left data exchange, its watchdog expired, it \
-                         was parameterised again, a burst was not written, or its inputs stopped \
-                         following the outputs"
+                         was parameterised again, a burst was not written or cost more than the \
+                         telegram it hit, or its inputs stopped following the outputs"
                     );
                 }
             }

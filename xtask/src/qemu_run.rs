@@ -228,6 +228,16 @@ impl Drop for LinkedPty {
     }
 }
 
+/// The DP state for the status line. Power_On is the DP state machine's own: the slave stays in
+/// it until its first request other than Set_Slave_Add, which is why it shows until a master
+/// speaks.
+fn state_name(state: dp_link::SlaveState) -> String {
+    match state {
+        dp_link::SlaveState::PowerOn => "PowerOn (no request yet)".to_string(),
+        other => format!("{other:?}"),
+    }
+}
+
 fn drive_line(drive: &DriveSim, link_error: u8) -> String {
     format!(
         "drive: CW {:04X} f {:>3}.{:02} Hz{} link {}",
@@ -274,8 +284,9 @@ fn simulated_bus(
             );
             let drive = drive_line(sim.drive_now(), err);
             status(&format!(
-                "[{:>7.1} s] {state:?} addr {addr} DX cycles {cycles} {drive}",
-                sim_time.as_secs_f64()
+                "[{:>7.1} s] {} addr {addr} DX cycles {cycles} {drive}",
+                sim_time.as_secs_f64(),
+                state_name(state)
             ))?;
             check_alive(&mut sim.bridge.firmware, &mut log)?;
         }
@@ -397,9 +408,9 @@ fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
             }
             last_link_error = s.drive_link_error;
             status(&format!(
-                "[{:>7.1} s] {:?} addr {} telegrams {} responses {} {}",
+                "[{:>7.1} s] {} addr {} telegrams {} responses {} {}",
                 start.elapsed().as_secs_f64(),
-                s.state,
+                state_name(s.state),
                 s.address,
                 adapter.telegrams,
                 adapter.responses,

@@ -120,23 +120,15 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
         // The images to the link, the link on, and what it just answered into the images,
         // so that the next data exchange carries it.
         match step {
-            0 => {
-                self.service(now);
-                Step::More
-            }
-            1 => {
-                self.drive_mut().poll(now_us);
-                Step::More
-            }
-            2 => {
-                sync_fieldbus_group(self);
-                Step::More
-            }
+            0 => self.service(now),
+            1 => self.drive_mut().poll(now_us),
+            2 => sync_fieldbus_group(self),
             _ => {
                 self.service(now);
-                Step::Done(self.drive().poll_at())
+                return Step::Done(self.drive().poll_at());
             }
         }
+        Step::More
     }
 
     fn drive_tx_bytes(&self) -> u32 {
@@ -487,7 +479,7 @@ impl<A: Application + Background> Adapter<A> {
         if self.slave.state() == State::DataExch {
             self.exchanged = true;
         }
-        self.write_buffers(now, decided, out);
+        self.write_buffers(now, decided, !new_outputs, out);
         out(Out::DecisionWritten);
         let shown = self.written.status.map(|s| (s.state, s.address));
         if !new_outputs && shown != Some((link_state(self.slave.state()), self.slave.address())) {
@@ -553,7 +545,7 @@ impl<A: Application + Background> Adapter<A> {
             self.station_told = address;
             self.slave.app_mut().inner.station(address);
         }
-        self.write_buffers(now, false, out);
+        self.write_buffers(now, false, true, out);
         self.write_status(out, true);
     }
 
@@ -592,25 +584,30 @@ impl<A: Application + Background> Adapter<A> {
 
     /// Writes the responder's buffers that changed, and the registers last (so that the
     /// buffers are in place when the registers release the answers that wait for them); the
-    /// registers also when `decided`.
-    fn write_buffers(&mut self, now: Instant, decided: bool, out: &mut dyn FnMut(Out)) {
+    /// registers also when `decided`. Without `all`, the inputs only: new outputs change
+    /// nothing else, and the diagnosis and configuration are looked at again at the end of the
+    /// next cycle of the drive application (a Data_Exchange at 12 Mbit/s leaves no time for
+    /// them).
+    fn write_buffers(&mut self, now: Instant, decided: bool, all: bool, out: &mut dyn FnMut(Out)) {
         // Each buffer is built in the scratch area and compared in place: copying a whole
         // buffer per event was a third of the MCU's work on a Data_Exchange.
         let len = self.slave.write_inputs(now, &mut self.scratch);
         if let Some(inputs) = take_if_changed(&mut self.written.inputs, &self.scratch[..len]) {
             out(Out::Write(FromAdapter::Inputs(inputs)));
         }
-        let (len, new) = self.slave.write_diag(&mut self.scratch);
-        let changed = take_if_changed(&mut self.written.diag, &self.scratch[..len]).is_some();
-        if new || changed {
-            out(Out::Write(FromAdapter::Diag {
-                new,
-                bytes: &self.scratch[..len],
-            }));
-        }
-        let len = self.slave.write_cfg(&mut self.scratch);
-        if let Some(cfg) = take_if_changed(&mut self.written.cfg, &self.scratch[..len]) {
-            out(Out::Write(FromAdapter::Cfg(cfg)));
+        if all {
+            let (len, new) = self.slave.write_diag(&mut self.scratch);
+            let changed = take_if_changed(&mut self.written.diag, &self.scratch[..len]).is_some();
+            if new || changed {
+                out(Out::Write(FromAdapter::Diag {
+                    new,
+                    bytes: &self.scratch[..len],
+                }));
+            }
+            let len = self.slave.write_cfg(&mut self.scratch);
+            if let Some(cfg) = take_if_changed(&mut self.written.cfg, &self.scratch[..len]) {
+                out(Out::Write(FromAdapter::Cfg(cfg)));
+            }
         }
         let regs = self.regs();
         let changed = self.written.regs.is_none_or(|r| {

@@ -327,7 +327,7 @@ macro_rules! adapter_app {
             /// `frame` is the task's: a fresh zeroed frame per message cost more than encoding it.
             fn send(tx: &mut board::Uart, frame: &mut [u8; dp_link::MAX_FRAME_LEN], message: &FromAdapter) {
                 match dp_link::encode(message, frame) {
-                    Ok(bytes) => bytes.iter().for_each(|b| tx.write_byte(*b)),
+                    Ok(bytes) => tx.write_frame(bytes),
                     Err(_) => warn!("link: message does not fit a frame"),
                 }
             }

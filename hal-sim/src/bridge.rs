@@ -424,7 +424,7 @@ impl<F: Firmware> Bridge<F> {
     /// landed, or (nothing changed) the firmware had taken it.
     fn take(&mut self, start_ns: u64, handled: &Handled) -> io::Result<u64> {
         let link = self.board.link;
-        // Time the MCU spent waiting for the link to take its writes (blocking writes).
+        // Time the MCU spent waiting for the link to take its writes.
         let mut blocked_ns = 0;
         let mut decided_ns = start_ns
             + self
@@ -435,10 +435,13 @@ impl<F: Firmware> Bridge<F> {
             let begin = sent.max(self.from_mcu_free_ns);
             let arrived = begin + link.transfer_ns(write.encoded_len());
             self.from_mcu_free_ns = arrived;
-            if link.blocking_writes {
+            blocked_ns += if link.dma_writes {
+                // The frame before it must be out of the one buffer first.
+                begin - sent
+            } else {
                 // The last byte's hand-over: one byte time before it has gone out.
-                blocked_ns += (arrived - link.transfer_ns(1)).saturating_sub(sent);
-            }
+                (arrived - link.transfer_ns(1)).saturating_sub(sent)
+            };
             if i < handled.decision_writes {
                 decided_ns = arrived;
             }
@@ -577,7 +580,7 @@ mod tests {
     }
 
     #[test]
-    fn the_board_charges_the_idle_character_and_the_blocking_write() {
+    fn the_board_charges_the_idle_character_and_a_write_waits_for_the_one_before() {
         let firmware = Fixed {
             decision: 720,
             total: 1440,
@@ -586,7 +589,7 @@ mod tests {
         let mut bridge = Bridge::new(firmware, 48_000_000, 5, None);
         let board = bridge.board;
         let link = board.link;
-        assert!(link.blocking_writes && link.idle_bytes_after_frame == 1);
+        assert!(link.dma_writes && link.idle_bytes_after_frame == 1);
         bridge.boot(0);
         let boot_len = encoded_len(
             &Event::Boot {
@@ -601,17 +604,32 @@ mod tests {
         assert_eq!(bridge.next_ns(), Some(arrival + board.irq_entry_ns()));
         let start = arrival + board.irq_entry_ns();
         bridge.poll(start).unwrap();
-        // The write leaves after the decision's instructions and takes its bytes' time; the
-        // MCU waits for all but the last byte, so the rest of its work starts only then.
+        // The write leaves after the decision's instructions and takes its bytes' time; by
+        // DMA, the MCU goes on at once.
         let write_len = Write::Inputs(vec![0x55; 12]).encoded_len();
         let written = start + board.instructions_ns(720) + link.transfer_ns(write_len);
         assert_eq!(bridge.next_ns(), Some(written));
-        let blocked = link.transfer_ns(write_len) - link.transfer_ns(1);
-        assert_eq!(
-            bridge.mcu_free_ns,
-            start + board.instructions_ns(1440) + blocked
-        );
+        assert_eq!(bridge.mcu_free_ns, start + board.instructions_ns(1440));
         bridge.poll(written).unwrap();
         assert!(bridge.idle());
+        // Two writes at once: the second waits for the first to be out, and the MCU with it.
+        let handled = Handled {
+            writes: vec![
+                (100, Write::Inputs(vec![1; 12])),
+                (100, Write::Inputs(vec![2; 12])),
+            ],
+            decision_writes: 2,
+            decision_instructions: 100,
+            instructions: 200,
+            drive_tx_bytes: 0,
+            cycle_pending: false,
+        };
+        let at = written + 1_000_000;
+        bridge.take(at, &handled).unwrap();
+        let first_out = at + board.instructions_ns(100) + link.transfer_ns(write_len);
+        assert_eq!(
+            bridge.mcu_free_ns,
+            first_out + board.instructions_ns(200) - board.instructions_ns(100)
+        );
     }
 }

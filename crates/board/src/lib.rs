@@ -21,9 +21,10 @@ pub struct Link {
     /// Idle bytes the transceiver leaves after each frame to the MCU: the MCU receives by DMA
     /// and interrupts on the idle line, so a frame reaches the firmware when they have passed.
     pub idle_bytes_after_frame: u32,
-    /// The MCU hands its writes to the link a byte at a time and waits for each: its next
-    /// instruction follows the last byte's hand-over.
-    pub blocking_writes: bool,
+    /// How the MCU sends. By DMA (`true`), a frame at a time from one buffer: it waits only
+    /// for a frame still going out before it starts the next. Else a byte at a time, waiting
+    /// for each: its next instruction follows the last byte's hand-over.
+    pub dma_writes: bool,
 }
 
 impl Link {
@@ -72,7 +73,7 @@ impl Board {
 ///   link carries only buffer updates and the requests the firmware decides; its byte time
 ///   enters no response time. The MCU receives by DMA (an interrupt per byte would take more
 ///   than the 160 cycles a byte lasts) and interrupts on the idle character after each frame;
-///   it sends byte by byte, waiting on the data register.
+///   it sends by DMA too, a frame at a time.
 /// - Instructions: 150 % (two flash wait states at 72 MHz; the prefetch buffer hides part of
 ///   them: a conservative figure, not a measurement).
 /// - Interrupt entry: 12 cycles, the Cortex-M3's exception entry with no wait states on the
@@ -87,7 +88,7 @@ pub const STM32F103: Board = Board {
         bit_rate: 4_500_000,
         bits_per_byte: 10,
         idle_bytes_after_frame: 1,
-        blocking_writes: true,
+        dma_writes: true,
     },
     flash_bytes: 64 * 1024,
     ram_bytes: 20 * 1024,

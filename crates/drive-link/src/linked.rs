@@ -254,6 +254,17 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         }
     }
 
+    /// Takes answer `at` out, the last in its place. Not heapless's `remove` or
+    /// `swap_remove`: their possibly-overlapping copy links a 1.5 KiB memmove into the
+    /// production board's flash; the order does not matter (answers are found by ticket).
+    fn take_answer(&mut self, at: usize) -> (Ticket, Op, Result<Outcome, DriveError>) {
+        let last = self.answers.pop().expect("an answer is there");
+        match self.answers.get_mut(at) {
+            Some(slot) => core::mem::replace(slot, last),
+            None => last,
+        }
+    }
+
     fn finish(&mut self, job: Job, outcome: Outcome, now_us: u64) {
         let result = match outcome {
             Outcome::Failed(e) => Err(e),
@@ -278,7 +289,12 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             Job::Request(ticket, op) => {
                 self.figures.requests += 1;
                 if self.answers.is_full() {
-                    let _ = self.answers.remove(0);
+                    // The oldest answer nobody collected makes room.
+                    let next = self.next_ticket;
+                    let oldest = (0..self.answers.len())
+                        .max_by_key(|&i| next.wrapping_sub(self.answers[i].0 .0))
+                        .unwrap_or(0);
+                    let _ = self.take_answer(oldest);
                 }
                 let _ = self.answers.push((ticket, op, result));
             }
@@ -348,7 +364,7 @@ impl<U: Read<u8> + Write<u8>> Drive for LinkedDrive<U> {
 
     fn poll(&mut self, ticket: Ticket) -> Option<Result<u16, DriveError>> {
         let at = self.answers.iter().position(|(t, _, _)| *t == ticket)?;
-        let (_, op, result) = self.answers.remove(at);
+        let (_, op, result) = self.take_answer(at);
         Some(value(op, result))
     }
 

@@ -59,8 +59,10 @@ impl FaultBuffer {
         params.fault_codes[0] = number;
         params.fault_numbers[0] = number;
         params.fault_count = params.fault_count.saturating_add(1);
-        self.at.copy_within(..FAULT_SUBINDICES.len() - 1, 1);
-        self.at[0] = Some(at);
+        // A new array, not `copy_within`: an overlapping copy links a 1.5 KiB memmove into
+        // the production board's flash.
+        let older = self.at;
+        self.at = core::array::from_fn(|i| if i == 0 { Some(at) } else { older[i - 1] });
         true
     }
 
@@ -68,8 +70,11 @@ impl FaultBuffer {
     pub fn update_times(&self, now: Instant, params: &mut Parameters) {
         for (at, sub) in self.at.iter().zip(FAULT_SUBINDICES) {
             if let Some(at) = at {
-                let seconds = (now.micros() - at.micros()) / 1_000_000;
-                params.fault_times[usize::from(sub) - 1] = seconds.min(u64::from(u16::MAX)) as u16;
+                // 948 counts to 65535 s. In 32 bits (1_000_000 = 64 x 15_625): a 64-bit
+                // division is a kilobyte of the production board's flash.
+                let micros = (now.micros() - at.micros()).min(u64::from(u16::MAX) * 1_000_000);
+                let seconds = ((micros >> 6) as u32) / 15_625;
+                params.fault_times[usize::from(sub) - 1] = seconds as u16;
             }
         }
     }

@@ -61,8 +61,14 @@ impl Uart {
         (self.read(FR) & FR_RXFE == 0).then(|| self.read(DR) as u8)
     }
 
+    /// Sends a frame a byte at a time (QEMU's UART takes them at once; hal-sim charges the
+    /// production board's link).
+    pub fn write_frame(&mut self, bytes: &[u8]) {
+        bytes.iter().for_each(|b| self.write_byte(*b));
+    }
+
     /// Sends one byte, waiting while the FIFO is full.
-    pub fn write_byte(&mut self, byte: u8) {
+    fn write_byte(&mut self, byte: u8) {
         while self.read(FR) & FR_TXFF != 0 {}
         self.write(DR, u32::from(byte));
     }

@@ -2,7 +2,8 @@
 //! PA10 RX) carries the link to the transceiver FPGA at 4.5 Mbit/s, the fastest USART1 runs at
 //! 72 MHz. It receives by DMA (DMA1 channel 5, round and round a ring) and interrupts once a
 //! frame, on the idle character the transceiver leaves after each: a byte every 2.2 µs is 160
-//! cycles, and an interrupt per byte would take most of them; USART2 (PA2 TX, PA3 RX) the Modbus RTU link to the drive at 2.25 Mbit/s 8E1, the
+//! cycles, and an interrupt per byte would take most of them. It sends by DMA too (channel 4,
+//! a frame at a time), so the MCU waits only for a frame still going out; USART2 (PA2 TX, PA3 RX) the Modbus RTU link to the drive at 2.25 Mbit/s 8E1, the
 //! fastest exact rate of APB1's 36 MHz. defmt goes out over RTT; a panic resets the chip.
 //!
 //! The rotary switch, the address EEPROM and the LEDs hang on the FPGA, which reads the switch
@@ -60,11 +61,19 @@ const SR_TXE: u16 = 1 << 7;
 const CR1_UE_TE_RE_RXNEIE: u16 = (1 << 13) | (1 << 3) | (1 << 2) | (1 << 5);
 // USART1 for the link: no receive interrupt, the idle-line one instead; receive by DMA.
 const CR1_UE_TE_RE_IDLEIE: u16 = (1 << 13) | (1 << 3) | (1 << 2) | (1 << 4);
-const CR3_DMAR: u16 = 1 << 6;
+const CR3_DMAR_DMAT: u16 = (1 << 6) | (1 << 7);
 // RCC_AHBENR
 const DMA1EN: u32 = 1 << 0;
 // DMA_CCR: memory increment, circular, priority high, enable (peripheral to memory, bytes).
 const CCR_MINC_CIRC_PL_HIGH_EN: u32 = (1 << 7) | (1 << 5) | (0b10 << 12) | 1;
+
+const CCR_EN: u32 = 1;
+// DMA_CCR for sending: memory increment, memory to peripheral, enable.
+const CCR_MINC_DIR_EN: u32 = (1 << 7) | (1 << 4) | 1;
+
+/// The link's transmit buffer, read by DMA1 channel 4: one frame.
+const TX_BUF_LEN: usize = dp_link::MAX_FRAME_LEN;
+static mut TX_BUF: [u8; TX_BUF_LEN] = [0; TX_BUF_LEN];
 
 /// The link's receive ring, written by DMA1 channel 5.
 const RX_RING_LEN: usize = 512;
@@ -74,6 +83,12 @@ static mut RX_RING: [u8; RX_RING_LEN] = [0; RX_RING_LEN];
 pub struct Uart {
     /// The next byte of the ring to read.
     read_at: usize,
+}
+
+fn tx_dma() -> &'static pac::dma1::CH {
+    // SAFETY: DMA1's register block is always mapped; channel 4 is the link's transmit
+    // channel, used by `Uart::write_frame` only (the link task's).
+    unsafe { (*pac::DMA1::ptr()).ch4() }
 }
 
 fn rx_dma() -> &'static pac::dma1::CH {
@@ -105,12 +120,22 @@ impl Uart {
         Some(byte)
     }
 
-    /// Sends one byte, waiting for the data register to empty.
-    pub fn write_byte(&mut self, byte: u8) {
-        let u = usart1();
-        while u.sr().read().bits() & SR_TXE == 0 {}
-        // SAFETY: any 8-bit value is a valid DR write.
-        u.dr().write(|w| unsafe { w.bits(u16::from(byte)) });
+    /// Sends a frame by DMA (channel 4) from the transmit buffer. Only a frame still going out
+    /// is waited for, as the buffer holds one; the MCU goes on while this one leaves.
+    pub fn write_frame(&mut self, bytes: &[u8]) {
+        let tx = tx_dma();
+        while tx.cr().read().bits() & CCR_EN != 0 && tx.ndtr().read().bits() != 0 {}
+        let len = bytes.len().min(TX_BUF_LEN);
+        // SAFETY: the channel is off or done, so nothing reads the buffer now; the channel
+        // only ever reads it, after the writes below.
+        unsafe {
+            tx.cr().write(|w| w.bits(0));
+            let buf = core::ptr::addr_of_mut!(TX_BUF).cast::<u8>();
+            core::ptr::copy_nonoverlapping(bytes.as_ptr(), buf, len);
+            tx.mar().write(|w| w.bits(buf as u32));
+            tx.ndtr().write(|w| w.bits(len as u32));
+            tx.cr().write(|w| w.bits(CCR_MINC_DIR_EN));
+        }
     }
 
     /// The idle-line flag clears by reading SR, then DR. The line is idle, so DR holds no byte
@@ -202,7 +227,10 @@ pub fn init(mut core: cortex_m::Peripherals, device: pac::Peripherals) -> Board 
     rx.ndtr().write(|w| unsafe { w.bits(RX_RING_LEN as u32) });
     rx.cr()
         .write(|w| unsafe { w.bits(CCR_MINC_CIRC_PL_HIGH_EN) });
-    usart.cr3().write(|w| unsafe { w.bits(CR3_DMAR) });
+    let tx = device.DMA1.ch4();
+    tx.par()
+        .write(|w| unsafe { w.bits(usart.dr().as_ptr() as u32) });
+    usart.cr3().write(|w| unsafe { w.bits(CR3_DMAR_DMAT) });
     usart
         .cr1()
         .write(|w| unsafe { w.bits(CR1_UE_TE_RE_IDLEIE) });

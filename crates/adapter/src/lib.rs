@@ -120,11 +120,16 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
         // The images to the link, the link on, and what it just answered into the images,
         // so that the next data exchange carries it.
         match step {
-            0 => self.service(now),
-            1 => self.drive_mut().poll(now_us),
-            2 => sync_fieldbus_group(self),
+            0 => self.service_pzd(now),
+            1 => self.service_pkw(now),
+            2 => {
+                self.drive_mut().poll_answer(now_us);
+            }
+            3 => self.drive_mut().start_next(now_us),
+            4 => sync_fieldbus_group(self),
+            5 => self.service_pzd(now),
             _ => {
-                self.service(now);
+                self.service_pkw(now);
                 return Step::Done(self.drive().poll_at());
             }
         }
@@ -321,6 +326,8 @@ enum CycleStep {
     App(u8),
     /// The writes of what the cycle changed.
     Write,
+    /// Then the status (a step of its own: each write may wait for the one before).
+    Status,
 }
 
 /// What the transceiver was last given, so that only changes cross the link.
@@ -523,6 +530,10 @@ impl<A: Application + Background> Adapter<A> {
             },
             CycleStep::Write => {
                 self.write_cycle(out);
+                Some(CycleStep::Status)
+            }
+            CycleStep::Status => {
+                self.write_status(out, true);
                 if core::mem::take(&mut self.cycle_again) {
                     Some(CycleStep::App(0))
                 } else {
@@ -533,7 +544,8 @@ impl<A: Application + Background> Adapter<A> {
         self.cycle.is_some()
     }
 
-    /// The end of a cycle: what the drive application changed goes to the transceiver.
+    /// The end of a cycle: what the drive application changed goes to the transceiver (the
+    /// status follows in a step of its own).
     fn write_cycle(&mut self, out: &mut dyn FnMut(Out)) {
         let now = Instant::from_micros(self.now_us);
         if let Some(address) = self.slave.app_mut().inner.requested_station() {
@@ -546,7 +558,6 @@ impl<A: Application + Background> Adapter<A> {
             self.slave.app_mut().inner.station(address);
         }
         self.write_buffers(now, false, true, out);
-        self.write_status(out, true);
     }
 
     /// The status, if it changed (or the storage must be written); `drive_leds`: with the
@@ -950,11 +961,13 @@ mod tests {
         };
         // Set_Prm: the decision (registers) and the new state, then a cycle is due.
         assert!(adapter.decide(&telegram(2, &set_prm(8, 0, false)), &mut out));
-        // EchoApp's cycle is one step, then the cycle's writes.
+        // EchoApp's cycle is one step, then the cycle's writes, then the status.
         assert!(adapter.cycle_step(&mut out));
         // An event during the cycle asks for another one after it.
         assert!(adapter.decide(&ToAdapter::Timer { seq: 3, now_us: 10 }, &mut out));
+        assert!(adapter.cycle_step(&mut out));
         assert!(adapter.cycle_step(&mut out), "the next cycle follows");
+        assert!(adapter.cycle_step(&mut out));
         assert!(adapter.cycle_step(&mut out));
         assert!(!adapter.cycle_step(&mut out));
         assert!(!adapter.cycle_pending());

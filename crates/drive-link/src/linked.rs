@@ -173,14 +173,32 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
     /// Moves the link on at `now_us`: finishes the transaction under way if its answer is
     /// complete or late, and starts the next one.
     pub fn poll(&mut self, now_us: u64) {
+        if self.poll_answer(now_us) {
+            self.start_next(now_us);
+        }
+    }
+
+    /// The answer half of [`LinkedDrive::poll`]: finishes the transaction under way if its
+    /// answer is in or its time is up. Returns whether the link is free for the next; a caller
+    /// that must not hold the CPU long runs [`LinkedDrive::start_next`] apart.
+    pub fn poll_answer(&mut self, now_us: u64) -> bool {
         if let Some(job) = self.job {
             match self.master.poll(now_us) {
                 Some(outcome) => {
                     self.job = None;
                     self.finish(job, outcome, now_us);
                 }
-                None => return,
+                None => return false,
             }
+        }
+        true
+    }
+
+    /// The request half of [`LinkedDrive::poll`]: starts the next transaction, if the link is
+    /// free and one is due.
+    pub fn start_next(&mut self, now_us: u64) {
+        if self.job.is_some() {
+            return;
         }
         let Some(job) = self.next_job(now_us) else {
             return;

@@ -71,6 +71,9 @@ pub struct ProfidriveApp<D> {
     params: Parameters,
     /// The fault buffer's state (945, 947, 948, 952 live in `params`).
     faults: FaultBuffer,
+    /// The process data's last exchange with the drive, until the parameter half of the
+    /// service notes it ([`ProfidriveApp::service_pkw`]).
+    exchanged: Option<Result<(), DriveError>>,
 }
 
 /// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
@@ -96,6 +99,7 @@ impl<D: Drive> ProfidriveApp<D> {
             rated_reference: DEFAULT_RATED_REFERENCE,
             params: Parameters::default(),
             faults: FaultBuffer::default(),
+            exchanged: None,
         }
     }
 
@@ -170,6 +174,14 @@ impl<D: Drive> ProfidriveApp<D> {
 
     /// The drive's I/O for the current process images, the PKW request and the cut-off.
     pub fn service(&mut self, now: Instant) {
+        self.service_pzd(now);
+        self.service_pkw(now);
+    }
+
+    /// The process data half of [`ProfidriveApp::service`]: the fail-safe cut-off, and the
+    /// outputs to the drive and its answer into the inputs. A caller that must not hold the
+    /// CPU long runs the two halves apart.
+    pub fn service_pzd(&mut self, now: Instant) {
         if let (Some(at), None) = (self.last_outputs_at, self.fail_safe) {
             let cut_off = u64::from(self.prm.cut_off_ms) * 1000;
             if cut_off > 0 && now.micros().saturating_sub(at.micros()) >= cut_off {
@@ -184,6 +196,15 @@ impl<D: Drive> ProfidriveApp<D> {
         let result = self.exchange_with_drive(now, &apply, words);
         self.faults.update_times(now, &mut self.params);
         self.pzd_applied = apply;
+        self.exchanged = Some(result);
+    }
+
+    /// The parameter half of [`ProfidriveApp::service`], after [`ProfidriveApp::service_pzd`]:
+    /// the parameter channel, and the drive link's state for the diagnosis.
+    pub fn service_pkw(&mut self, now: Instant) {
+        let Some(result) = self.exchanged.take() else {
+            return;
+        };
         if let Some(ppo) = self.ppo.filter(|p| p.has_pkw()) {
             match self.prm.operation {
                 OperationMode::Vendor => self.pkw.service(&mut self.drive),

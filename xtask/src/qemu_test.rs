@@ -119,6 +119,7 @@ pub fn run(args: &[String]) -> Result<()> {
                     .map(|(what, _)| format!("check failed: {what}"))
                     .collect();
                 problems.extend(golden);
+                problems.extend(over_budget(&outcome.figures));
                 (problems.is_empty(), problems, Some(outcome))
             }
             Err(e) => (false, vec![format!("error: {e:#}")], None),
@@ -280,6 +281,20 @@ fn diff(want: &str, got: &str) -> String {
     out
 }
 
+/// Issue 12's budget: the firmware's part of a new Data_Exchange (its outputs arriving at the
+/// MCU to its writes back in the transceiver, the link included) within one DP cycle.
+fn over_budget(f: &hal_sim::cosim::Figures) -> Option<String> {
+    let (worst, cycle) = (f.worst_outputs_to_inputs_ns?, f.median_dp_cycle_ns?);
+    (worst > cycle).then(|| {
+        format!(
+            "budget: new outputs to the firmware's writes took up to {:.1} us, over the DP \
+             cycle of {:.1} us",
+            worst as f64 / 1000.0,
+            cycle as f64 / 1000.0
+        )
+    })
+}
+
 fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
     println!();
     println!(
@@ -322,7 +337,8 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
          max: the VPC3+ class's MaxTsdr at that rate; mcu us: from a new Data_Exchange's outputs \
          arriving at the MCU to the firmware's writes (inputs included) back in the transceiver, \
          worst and median, on the {} ({} MHz, {} instructions per 100 counted, link {} bit/s); \
-         cycle us: the master's median Data_Exchange cycle to the adapter.",
+         cycle us: the master's median Data_Exchange cycle to the adapter, the budget of the \
+         worst (a scenario over it fails).",
         b.chip,
         b.mcu_clock_hz / 1_000_000,
         b.cycles_per_instruction_pct,

@@ -324,10 +324,30 @@ type Buffer = heapless::Vec<u8, BUFFER_LEN>;
 enum CycleStep {
     /// The application's own step `n` ([`Background::run_step`]).
     App(u8),
-    /// The writes of what the cycle changed.
+    /// The writes of what the cycle changed: the inputs,
     Write,
-    /// Then the status (a step of its own: each write may wait for the one before).
+    /// the diagnosis, the configuration,
+    Diag,
+    Cfg,
+    /// and the status (each a step of its own: together they would hold the MCU longer than
+    /// a Data_Exchange may wait at 12 Mbit/s).
     Status,
+}
+
+/// Which of the responder's buffers to write.
+#[derive(Clone, Copy, Debug)]
+struct Parts {
+    inputs: bool,
+    diag: bool,
+    cfg: bool,
+}
+
+impl Parts {
+    const NONE: Parts = Parts {
+        inputs: false,
+        diag: false,
+        cfg: false,
+    };
 }
 
 /// What the transceiver was last given, so that only changes cross the link.
@@ -486,7 +506,12 @@ impl<A: Application + Background> Adapter<A> {
         if self.slave.state() == State::DataExch {
             self.exchanged = true;
         }
-        self.write_buffers(now, decided, !new_outputs, out);
+        let parts = Parts {
+            inputs: true,
+            diag: !new_outputs,
+            cfg: !new_outputs,
+        };
+        self.write_buffers(now, decided, parts, out);
         out(Out::DecisionWritten);
         let shown = self.written.status.map(|s| (s.state, s.address));
         if !new_outputs && shown != Some((link_state(self.slave.state()), self.slave.address())) {
@@ -530,6 +555,24 @@ impl<A: Application + Background> Adapter<A> {
             },
             CycleStep::Write => {
                 self.write_cycle(out);
+                Some(CycleStep::Diag)
+            }
+            CycleStep::Diag => {
+                let now = Instant::from_micros(self.now_us);
+                let parts = Parts {
+                    diag: true,
+                    ..Parts::NONE
+                };
+                self.write_buffers(now, false, parts, out);
+                Some(CycleStep::Cfg)
+            }
+            CycleStep::Cfg => {
+                let now = Instant::from_micros(self.now_us);
+                let parts = Parts {
+                    cfg: true,
+                    ..Parts::NONE
+                };
+                self.write_buffers(now, false, parts, out);
                 Some(CycleStep::Status)
             }
             CycleStep::Status => {
@@ -544,8 +587,8 @@ impl<A: Application + Background> Adapter<A> {
         self.cycle.is_some()
     }
 
-    /// The end of a cycle: what the drive application changed goes to the transceiver (the
-    /// status follows in a step of its own).
+    /// The end of a cycle: the inputs the drive application changed go to the transceiver
+    /// (the diagnosis, configuration and status follow in steps of their own).
     fn write_cycle(&mut self, out: &mut dyn FnMut(Out)) {
         let now = Instant::from_micros(self.now_us);
         if let Some(address) = self.slave.app_mut().inner.requested_station() {
@@ -557,7 +600,11 @@ impl<A: Application + Background> Adapter<A> {
             self.station_told = address;
             self.slave.app_mut().inner.station(address);
         }
-        self.write_buffers(now, false, true, out);
+        let parts = Parts {
+            inputs: true,
+            ..Parts::NONE
+        };
+        self.write_buffers(now, false, parts, out);
     }
 
     /// The status, if it changed (or the storage must be written); `drive_leds`: with the
@@ -595,18 +642,26 @@ impl<A: Application + Background> Adapter<A> {
 
     /// Writes the responder's buffers that changed, and the registers last (so that the
     /// buffers are in place when the registers release the answers that wait for them); the
-    /// registers also when `decided`. Without `all`, the inputs only: new outputs change
-    /// nothing else, and the diagnosis and configuration are looked at again at the end of the
-    /// next cycle of the drive application (a Data_Exchange at 12 Mbit/s leaves no time for
-    /// them).
-    fn write_buffers(&mut self, now: Instant, decided: bool, all: bool, out: &mut dyn FnMut(Out)) {
+    /// registers also when `decided`; of the buffers, the `parts` asked for. New outputs
+    /// change only the inputs: the diagnosis and configuration are looked at again at the end
+    /// of the next cycle of the drive application (a Data_Exchange at 12 Mbit/s leaves no
+    /// time for them).
+    fn write_buffers(
+        &mut self,
+        now: Instant,
+        decided: bool,
+        parts: Parts,
+        out: &mut dyn FnMut(Out),
+    ) {
         // Each buffer is built in the scratch area and compared in place: copying a whole
         // buffer per event was a third of the MCU's work on a Data_Exchange.
-        let len = self.slave.write_inputs(now, &mut self.scratch);
-        if let Some(inputs) = take_if_changed(&mut self.written.inputs, &self.scratch[..len]) {
-            out(Out::Write(FromAdapter::Inputs(inputs)));
+        if parts.inputs {
+            let len = self.slave.write_inputs(now, &mut self.scratch);
+            if let Some(inputs) = take_if_changed(&mut self.written.inputs, &self.scratch[..len]) {
+                out(Out::Write(FromAdapter::Inputs(inputs)));
+            }
         }
-        if all {
+        if parts.diag {
             let (len, new) = self.slave.write_diag(&mut self.scratch);
             let changed = take_if_changed(&mut self.written.diag, &self.scratch[..len]).is_some();
             if new || changed {
@@ -615,6 +670,8 @@ impl<A: Application + Background> Adapter<A> {
                     bytes: &self.scratch[..len],
                 }));
             }
+        }
+        if parts.cfg {
             let len = self.slave.write_cfg(&mut self.scratch);
             if let Some(cfg) = take_if_changed(&mut self.written.cfg, &self.scratch[..len]) {
                 out(Out::Write(FromAdapter::Cfg(cfg)));
@@ -961,14 +1018,18 @@ mod tests {
         };
         // Set_Prm: the decision (registers) and the new state, then a cycle is due.
         assert!(adapter.decide(&telegram(2, &set_prm(8, 0, false)), &mut out));
-        // EchoApp's cycle is one step, then the cycle's writes, then the status.
+        // EchoApp's cycle is one step, then the cycle's writes in four.
         assert!(adapter.cycle_step(&mut out));
         // An event during the cycle asks for another one after it.
         assert!(adapter.decide(&ToAdapter::Timer { seq: 3, now_us: 10 }, &mut out));
-        assert!(adapter.cycle_step(&mut out));
+        // The inputs, the diagnosis, the configuration, the status: then the next cycle.
+        for _ in 0..3 {
+            assert!(adapter.cycle_step(&mut out));
+        }
         assert!(adapter.cycle_step(&mut out), "the next cycle follows");
-        assert!(adapter.cycle_step(&mut out));
-        assert!(adapter.cycle_step(&mut out));
+        for _ in 0..4 {
+            assert!(adapter.cycle_step(&mut out));
+        }
         assert!(!adapter.cycle_step(&mut out));
         assert!(!adapter.cycle_pending());
         // Chk_Cfg (one byte out, one in), then new outputs: they only fill the process image.

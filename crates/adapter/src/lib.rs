@@ -557,23 +557,19 @@ impl<A: Application + Background> Adapter<A> {
                 self.write_cycle(out);
                 Some(CycleStep::Diag)
             }
-            CycleStep::Diag => {
-                let now = Instant::from_micros(self.now_us);
+            CycleStep::Diag | CycleStep::Cfg => {
+                let diag = step == CycleStep::Diag;
                 let parts = Parts {
-                    diag: true,
+                    diag,
+                    cfg: !diag,
                     ..Parts::NONE
                 };
-                self.write_buffers(now, false, parts, out);
-                Some(CycleStep::Cfg)
-            }
-            CycleStep::Cfg => {
-                let now = Instant::from_micros(self.now_us);
-                let parts = Parts {
-                    cfg: true,
-                    ..Parts::NONE
-                };
-                self.write_buffers(now, false, parts, out);
-                Some(CycleStep::Status)
+                self.write_buffers(Instant::from_micros(now_us), false, parts, out);
+                Some(if diag {
+                    CycleStep::Cfg
+                } else {
+                    CycleStep::Status
+                })
             }
             CycleStep::Status => {
                 self.write_status(out, true);

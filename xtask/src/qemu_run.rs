@@ -302,6 +302,18 @@ fn simulated_bus(
     }
 }
 
+/// Whether the check's thread ends within a second (it closes its end of the pty just before).
+fn finishes_soon<T>(checker: &std::thread::JoinHandle<T>) -> bool {
+    let until = Instant::now() + Duration::from_secs(1);
+    while !checker.is_finished() {
+        if Instant::now() >= until {
+            return false;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    true
+}
+
 /// What a run on a port was asked for.
 struct PortRun<'a> {
     port: &'a str,
@@ -393,8 +405,9 @@ fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
             Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
             // A signal (Ctrl-C, SIGTERM) interrupted the read: the stop flag says what next.
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            // The check's master closed its end: the summary follows.
-            Err(_) if checker.as_ref().is_some_and(|c| c.is_finished()) => {}
+            // The check's master closed its end as its run ended: the summary follows. Its
+            // thread may close the pty a moment before it counts as finished, so wait for it.
+            Err(_) if checker.as_ref().is_some_and(finishes_soon) => {}
             Err(e) => return Err(e).context("reading the port"),
         }
         adapter.poll(start.elapsed().as_micros() as u64)?;

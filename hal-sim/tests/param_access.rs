@@ -10,8 +10,8 @@ use dp_slave::{Application, Instant};
 use drive_link::{Config, LinkedDrive, ModbusMaster};
 use drive_sim::{self, DriveSim, ACCEL_TIME};
 use profidrive::codes::FunctionCode;
-use profidrive::pd_params::{request as label, response, Frame};
-use profidrive::pkw::{self, Task, REPLY_VALUE};
+use profidrive::pd_params::{Frame, RequestLabel, ResponseLabel};
+use profidrive::pkw::{self, ReplyId, Task};
 use profidrive::ppo::Ppo;
 use profidrive::prm::{OperationMode, UserPrm};
 use profidrive::ProfidriveApp;
@@ -125,7 +125,7 @@ fn vendor_write(code: u16, value: u16) -> [u8; 8] {
 /// F0.13 is 1.13 = 113 = 0071h: PNU 0, IND 71h.
 fn profidrive_write(value: u16) -> [u8; 8] {
     Frame {
-        label: label::WRITE_ARRAY_WORD,
+        label: RequestLabel::WriteArrayWord.into(),
         pnu: 0,
         index: 0x71,
         value: u32::from(value),
@@ -140,8 +140,8 @@ fn a_pkw_write_of_the_value_the_drive_holds_writes_nothing_vendor() {
     let writes = rig.drive.persistent_writes;
     let reply = rig.hold(vendor_write(ACCEL_TIME, held), 200);
     assert_eq!(
-        reply[0] >> 4,
-        REPLY_VALUE,
+        ReplyId::from(reply[0] >> 4),
+        ReplyId::Value,
         "the write is answered: {reply:02X?}"
     );
     assert_eq!(
@@ -150,7 +150,7 @@ fn a_pkw_write_of_the_value_the_drive_holds_writes_nothing_vendor() {
     );
 
     let reply = rig.hold(vendor_write(ACCEL_TIME, held + 7), 200);
-    assert_eq!(reply[0] >> 4, REPLY_VALUE, "{reply:02X?}");
+    assert_eq!(ReplyId::from(reply[0] >> 4), ReplyId::Value, "{reply:02X?}");
     assert_eq!(rig.drive.read_register(ACCEL_TIME), Ok(held + 7));
     assert_eq!(
         rig.drive.persistent_writes,
@@ -166,8 +166,8 @@ fn a_pkw_write_of_the_value_the_drive_holds_writes_nothing_profidrive() {
     let writes = rig.drive.persistent_writes;
     let reply = Frame::decode(&rig.hold(profidrive_write(held), 200));
     assert_eq!(
-        (reply.label, reply.value),
-        (response::ARRAY_WORD, u32::from(held))
+        (reply.response_label(), reply.value),
+        (ResponseLabel::ArrayWord, u32::from(held))
     );
     assert_eq!(
         rig.drive.persistent_writes, writes,
@@ -176,8 +176,8 @@ fn a_pkw_write_of_the_value_the_drive_holds_writes_nothing_profidrive() {
 
     let reply = Frame::decode(&rig.hold(profidrive_write(held + 7), 200));
     assert_eq!(
-        (reply.label, reply.value),
-        (response::ARRAY_WORD, u32::from(held + 7))
+        (reply.response_label(), reply.value),
+        (ResponseLabel::ArrayWord, u32::from(held + 7))
     );
     assert_eq!(rig.drive.read_register(ACCEL_TIME), Ok(held + 7));
     assert_eq!(rig.drive.persistent_writes, writes + 1);

@@ -513,11 +513,10 @@ impl<A: Application + Background> Adapter<A> {
         };
         self.write_buffers(now, decided, parts, out);
         out(Out::DecisionWritten);
-        let shown = self.written.status.map(|s| (s.state, s.address));
-        if !new_outputs && shown != Some((link_state(self.slave.state()), self.slave.address())) {
-            // A new state or address (Set_Prm, Chk_Cfg, Set_Slave_Add) is out before the
-            // cycle runs. The drive link's LEDs are the cycle's to change: they keep what the
-            // last cycle showed, or they would go out for the length of a cycle.
+        if !new_outputs {
+            // What the decision changed in the status (the state, the address, the DP LEDs)
+            // is out before the cycle runs. The drive link's LEDs are the cycle's to change:
+            // they keep what the last cycle showed, or they would go out for its length.
             self.write_status(out, false);
         }
         // New outputs only fill the process image: the drive application's cycle runs on the

@@ -7,6 +7,48 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
 
+/// A code point of a protocol field: an enum of the values the protocol names, an `Unknown`
+/// for the rest (so that every value round-trips), and the conversions from and to the field's
+/// integer type (`u8` unless given: `pub enum Name: u16 { .. }`), like smoltcp's
+/// `enum_with_unknown!`. fdl's function codes and the PROFIdrive parameter channel's labels and
+/// error numbers are written with it. The defmt derive follows the calling crate's `defmt`
+/// feature. Hand-written because no published crate offers this for no_std without pulling in
+/// a proc-macro stack the firmware does not need.
+#[macro_export]
+macro_rules! code_point {
+    ($(#[$m:meta])* pub enum $name:ident { $($body:tt)* }) => {
+        $crate::code_point! { $(#[$m])* pub enum $name: u8 { $($body)* } }
+    };
+    ($(#[$m:meta])* pub enum $name:ident: $repr:ty {
+        $($(#[$vm:meta])* $variant:ident = $value:expr),+ $(,)?
+    }) => {
+        $(#[$m])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        pub enum $name {
+            $($(#[$vm])* $variant,)+
+            /// A code this crate does not name; kept so that it round-trips.
+            Unknown($repr),
+        }
+        impl From<$repr> for $name {
+            fn from(value: $repr) -> Self {
+                match value {
+                    $($value => $name::$variant,)+
+                    other => $name::Unknown(other),
+                }
+            }
+        }
+        impl From<$name> for $repr {
+            fn from(value: $name) -> $repr {
+                match value {
+                    $($name::$variant => $value,)+
+                    $name::Unknown(other) => other,
+                }
+            }
+        }
+    };
+}
+
 /// Bits on the wire per character: start 0, 8 data bits LSB first, even parity, stop 1.
 pub const BITS_PER_CHAR: u32 = 11;
 

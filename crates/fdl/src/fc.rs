@@ -10,37 +10,7 @@
 
 use crate::Error;
 
-/// Declares a `u8` code-point enum that keeps unknown values, like smoltcp's
-/// `enum_with_unknown!`. Hand-written because no published crate offers this for no_std
-/// without pulling in a proc-macro stack the firmware does not need.
-macro_rules! code_point {
-    ($(#[$m:meta])* pub enum $name:ident { $($(#[$vm:meta])* $variant:ident = $value:expr),+ $(,)? }) => {
-        $(#[$m])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-        pub enum $name {
-            $($(#[$vm])* $variant,)+
-            /// A code this crate does not name; kept so that it round-trips.
-            Unknown(u8),
-        }
-        impl From<u8> for $name {
-            fn from(value: u8) -> Self {
-                match value {
-                    $($value => $name::$variant,)+
-                    other => $name::Unknown(other),
-                }
-            }
-        }
-        impl From<$name> for u8 {
-            fn from(value: $name) -> u8 {
-                match value {
-                    $($name::$variant => $value,)+
-                    $name::Unknown(other) => other,
-                }
-            }
-        }
-    };
-}
+use dp_consts::code_point;
 
 code_point! {
     /// Function code of a request (FC bits 0-3 with bit 6 set).

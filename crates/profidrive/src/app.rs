@@ -630,7 +630,7 @@ mod tests {
 
     #[test]
     fn profidrive_pkw_pzd_mapping_and_fault_buffer_through_ppo2() {
-        use crate::pd_params::{request, response};
+        use crate::pd_params::{RequestLabel, ResponseLabel};
         use crate::profile::control as pd;
         let mut prm = UserPrm::DEFAULT;
         prm.operation = OperationMode::Profidrive;
@@ -644,13 +644,19 @@ mod tests {
             1,
             &ppo2([pke(7, 915), 0x0300, 0, 1202], [run, 0, 0, 0, 0, 0]),
         );
-        assert_eq!((inputs[0] >> 12) as u8, response::ARRAY_WORD);
+        assert_eq!(
+            ResponseLabel::from((inputs[0] >> 12) as u8),
+            ResponseLabel::ArrayWord
+        );
         let inputs = exchange(
             &mut app,
             2,
             &ppo2([pke(7, 916), 0x0300, 0, 2204], [run, 0, 777, 0, 0, 0]),
         );
-        assert_eq!((inputs[0] >> 12) as u8, response::ARRAY_WORD);
+        assert_eq!(
+            ResponseLabel::from((inputs[0] >> 12) as u8),
+            ResponseLabel::ArrayWord
+        );
         let inputs = exchange(&mut app, 3, &ppo2([0; 4], [run, 0, 777, 0, 0, 0]));
         assert_eq!(app.drive().get(0xFB02), 777);
         assert_eq!(inputs[6], 321);
@@ -659,7 +665,7 @@ mod tests {
             &mut app,
             4,
             &ppo2(
-                [pke(u16::from(request::READ), 929), 0, 0, 0],
+                [pke(u16::from(u8::from(RequestLabel::Read)), 929), 0, 0, 0],
                 [run, 0, 777, 0, 0, 0],
             ),
         );

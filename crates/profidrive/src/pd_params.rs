@@ -20,58 +20,64 @@ use crate::pkw::Planned;
 use crate::pkw::PKW_BYTES;
 use crate::ppo::MAX_PZD_WORDS;
 
-/// Request labels (master to slave).
-pub mod request {
-    pub const NONE: u8 = 0;
-    pub const READ: u8 = 1;
-    pub const WRITE_WORD: u8 = 2;
-    pub const WRITE_DWORD: u8 = 3;
-    pub const READ_ELEMENT: u8 = 4;
-    pub const WRITE_ELEMENT: u8 = 5;
-    pub const READ_ARRAY: u8 = 6;
-    pub const WRITE_ARRAY_WORD: u8 = 7;
-    pub const WRITE_ARRAY_DWORD: u8 = 8;
-    pub const ARRAY_COUNT: u8 = 9;
+dp_consts::code_point! {
+    /// Request labels (AK, master to slave).
+    pub enum RequestLabel {
+        None = 0,
+        Read = 1,
+        WriteWord = 2,
+        WriteDword = 3,
+        ReadElement = 4,
+        WriteElement = 5,
+        ReadArray = 6,
+        WriteArrayWord = 7,
+        WriteArrayDword = 8,
+        ArrayCount = 9,
+    }
 }
 
-/// Response labels (slave to master).
-pub mod response {
-    pub const NONE: u8 = 0;
-    pub const WORD: u8 = 1;
-    pub const DWORD: u8 = 2;
-    pub const ELEMENT: u8 = 3;
-    pub const ARRAY_WORD: u8 = 4;
-    pub const ARRAY_DWORD: u8 = 5;
-    pub const ARRAY_COUNT: u8 = 6;
-    pub const ERROR: u8 = 7;
-    pub const NO_PKW_RIGHTS: u8 = 8;
+dp_consts::code_point! {
+    /// Response labels (AK, slave to master).
+    pub enum ResponseLabel {
+        None = 0,
+        Word = 1,
+        Dword = 2,
+        Element = 3,
+        ArrayWord = 4,
+        ArrayDword = 5,
+        ArrayCount = 6,
+        Error = 7,
+        NoPkwRights = 8,
+    }
 }
 
-/// Error numbers of response label 7 (seed 004's response label table).
-pub mod error {
-    pub const ILLEGAL_PNU: u16 = 0;
-    pub const READ_ONLY: u16 = 1;
-    pub const OUT_OF_RANGE: u16 = 2;
-    pub const BAD_SUBINDEX: u16 = 3;
-    pub const NOT_AN_ARRAY: u16 = 4;
-    pub const WRONG_DATA_TYPE: u16 = 5;
-    pub const RESET_ONLY: u16 = 6;
-    pub const ELEMENT_READ_ONLY: u16 = 7;
-    pub const NO_DATA_TYPE: u16 = 9;
-    pub const NO_CHANGE_RIGHTS: u16 = 11;
-    pub const TEXT_ARRAY: u16 = 15;
-    pub const OPERATING_STATE: u16 = 17;
-    pub const OTHER: u16 = 18;
-    pub const PRODUCT_ID: u16 = 101;
-    pub const UNSUPPORTED_REQUEST: u16 = 102;
-    pub const COMMUNICATION_ERROR: u16 = 103;
-    pub const FLASH_WRITE_FAILED: u16 = 110;
-    pub const TIMEOUT: u16 = 111;
-    pub const NOT_MAPPABLE_TO_PZD: u16 = 120;
-    pub const NOT_MAPPABLE_TO_PZD_2: u16 = 121;
-    pub const NOT_MAPPABLE_TO_PZD_3: u16 = 123;
-    pub const CONTROL_BIT_TAKEN: u16 = 130;
-    pub const NO_TORQUE_MODE: u16 = 140;
+dp_consts::code_point! {
+    /// Error numbers of response label 7 (seed 004's response label table).
+    pub enum ErrorNumber: u16 {
+        IllegalPnu = 0,
+        ReadOnly = 1,
+        OutOfRange = 2,
+        BadSubindex = 3,
+        NotAnArray = 4,
+        WrongDataType = 5,
+        ResetOnly = 6,
+        ElementReadOnly = 7,
+        NoDataType = 9,
+        NoChangeRights = 11,
+        TextArray = 15,
+        OperatingState = 17,
+        Other = 18,
+        ProductId = 101,
+        UnsupportedRequest = 102,
+        CommunicationError = 103,
+        FlashWriteFailed = 110,
+        Timeout = 111,
+        NotMappableToPzd = 120,
+        NotMappableToPzd2 = 121,
+        NotMappableToPzd3 = 123,
+        ControlBitTaken = 130,
+        NoTorqueMode = 140,
+    }
 }
 
 /// A PROFIdrive PKW frame.
@@ -102,12 +108,27 @@ impl Frame {
         [a, b, self.index, 0, c, d, e, f]
     }
 
-    fn reply(&self, label: u8, value: u32) -> Frame {
+    /// The request's label.
+    pub fn request_label(&self) -> RequestLabel {
+        RequestLabel::from(self.label)
+    }
+
+    /// The response's label.
+    pub fn response_label(&self) -> ResponseLabel {
+        ResponseLabel::from(self.label)
+    }
+
+    fn reply(&self, label: ResponseLabel, value: u32) -> Frame {
         Frame {
-            label,
+            label: label.into(),
             value,
             ..*self
         }
+    }
+
+    /// The refusal of this request with error number `error` (response label 7).
+    fn refuse(&self, error: ErrorNumber) -> Frame {
+        self.reply(ResponseLabel::Error, u32::from(u16::from(error)))
     }
 }
 
@@ -127,13 +148,13 @@ pub fn drive_parameter(number: u16) -> Option<FunctionCode> {
 
 /// A PZD3-10 mapping value (915/916 and the drive's fieldbus group): 0 unused, 1-99 data
 /// sets (none on this drive), 101-9999 drive parameters, 10000 and up refused.
-pub fn pzd_target(value: u16) -> Result<Option<FunctionCode>, u16> {
+pub fn pzd_target(value: u16) -> Result<Option<FunctionCode>, ErrorNumber> {
     match value {
         0 => Ok(None),
         101..=9999 => drive_parameter(value)
             .map(Some)
-            .ok_or(error::NOT_MAPPABLE_TO_PZD),
-        _ => Err(error::NOT_MAPPABLE_TO_PZD),
+            .ok_or(ErrorNumber::NotMappableToPzd),
+        _ => Err(ErrorNumber::NotMappableToPzd),
     }
 }
 
@@ -250,7 +271,7 @@ enum Rights {
 
 /// A written value's check: `Err` is the error number. `at` is the number's offset in its row
 /// (933 is offset 0 of 933-937), `index` the request's sub-index.
-type Check = fn(p: &Parameters, at: usize, index: u8, value: u16) -> Result<(), u16>;
+type Check = fn(p: &Parameters, at: usize, index: u8, value: u16) -> Result<(), ErrorNumber>;
 
 /// One row of the table: a parameter number (or a run of them), where its value lives, whether
 /// the master may write it, and the check a write must pass.
@@ -262,14 +283,14 @@ struct Row {
     check: Check,
 }
 
-fn any_value(_: &Parameters, _: usize, _: u8, _: u16) -> Result<(), u16> {
+fn any_value(_: &Parameters, _: usize, _: u8, _: u16) -> Result<(), ErrorNumber> {
     Ok(())
 }
 
-fn up_to(max: u16) -> impl Fn(u16) -> Result<(), u16> {
+fn up_to(max: u16) -> impl Fn(u16) -> Result<(), ErrorNumber> {
     move |value| {
         if value > max {
-            Err(error::OUT_OF_RANGE)
+            Err(ErrorNumber::OutOfRange)
         } else {
             Ok(())
         }
@@ -277,32 +298,32 @@ fn up_to(max: u16) -> impl Fn(u16) -> Result<(), u16> {
 }
 
 /// 915/916: PZD1 and PZD2 are fixed (CW/SW, REF/ACT); PZD3-10 a mappable drive parameter.
-fn pzd_mapping(_: &Parameters, _: usize, index: u8, value: u16) -> Result<(), u16> {
+fn pzd_mapping(_: &Parameters, _: usize, index: u8, value: u16) -> Result<(), ErrorNumber> {
     match index {
-        1 | 2 => Err(error::NOT_MAPPABLE_TO_PZD),
+        1 | 2 => Err(ErrorNumber::NotMappableToPzd),
         _ => pzd_target(value).map(|_| ()),
     }
 }
 
 /// 933-937: a user-defined control bit can be given to one control-word bit only.
-fn control_bit(p: &Parameters, at: usize, _: u8, value: u16) -> Result<(), u16> {
+fn control_bit(p: &Parameters, at: usize, _: u8, value: u16) -> Result<(), ErrorNumber> {
     let taken = p
         .control_bit_selectors
         .iter()
         .enumerate()
         .any(|(i, v)| *v == value && i != at);
     if value != 0 && taken {
-        return Err(error::CONTROL_BIT_TAKEN);
+        return Err(ErrorNumber::ControlBitTaken);
     }
     up_to(5)(value)
 }
 
 /// 930: speed control (1); torque (8001h) is not a mode of this drive.
-fn operating_mode(_: &Parameters, _: usize, _: u8, value: u16) -> Result<(), u16> {
+fn operating_mode(_: &Parameters, _: usize, _: u8, value: u16) -> Result<(), ErrorNumber> {
     match value {
         1 => Ok(()),
-        0x8001 => Err(error::NO_TORQUE_MODE),
-        _ => Err(error::OUT_OF_RANGE),
+        0x8001 => Err(ErrorNumber::NoTorqueMode),
+        _ => Err(ErrorNumber::OutOfRange),
     }
 }
 
@@ -358,12 +379,12 @@ impl Parameters {
 
     /// The request executed on the adapter's parameters, or the drive access it needs.
     fn execute_local(&mut self, request: &Frame, ppo_number: u8) -> Result<Frame, Access> {
-        use self::request as rq;
-        let err = |e: u16| request.reply(response::ERROR, u32::from(e));
-        let label = request.label;
-        if label == rq::NONE {
+        use RequestLabel as Rq;
+        let err = |e: ErrorNumber| request.refuse(e);
+        let label = request.request_label();
+        if label == Rq::None {
             return Ok(Frame {
-                label: response::NONE,
+                label: ResponseLabel::None.into(),
                 pnu: 0,
                 index: 0,
                 value: 0,
@@ -371,23 +392,23 @@ impl Parameters {
         }
         let writes = matches!(
             label,
-            rq::WRITE_WORD
-                | rq::WRITE_DWORD
-                | rq::WRITE_ELEMENT
-                | rq::WRITE_ARRAY_WORD
-                | rq::WRITE_ARRAY_DWORD
+            Rq::WriteWord
+                | Rq::WriteDword
+                | Rq::WriteElement
+                | Rq::WriteArrayWord
+                | Rq::WriteArrayDword
         );
         if writes && self.pkw_rights == 0 && request.pnu != 927 {
-            return Ok(request.reply(response::NO_PKW_RIGHTS, 0));
+            return Ok(request.reply(ResponseLabel::NoPkwRights, 0));
         }
         if request.pnu < 900 {
             return drive_access(request);
         }
         if request.pnu == 929 {
             return Ok(match label {
-                rq::READ => request.reply(response::WORD, u32::from(ppo_number)),
-                rq::WRITE_WORD | rq::WRITE_DWORD => err(error::READ_ONLY),
-                _ => err(error::NOT_AN_ARRAY),
+                Rq::Read => request.reply(ResponseLabel::Word, u32::from(ppo_number)),
+                Rq::WriteWord | Rq::WriteDword => err(ErrorNumber::ReadOnly),
+                _ => err(ErrorNumber::NotAnArray),
             });
         }
         Ok(self.own_parameter(request))
@@ -395,42 +416,42 @@ impl Parameters {
 
     /// A request for one of the adapter's own parameters (900 and up).
     fn own_parameter(&mut self, request: &Frame) -> Frame {
-        use self::request as rq;
-        let err = |e: u16| request.reply(response::ERROR, u32::from(e));
-        let label = request.label;
+        use RequestLabel as Rq;
+        let err = |e: ErrorNumber| request.refuse(e);
+        let label = request.request_label();
         let Some((row, at)) = row(request.pnu) else {
-            return err(error::ILLEGAL_PNU);
+            return err(ErrorNumber::IllegalPnu);
         };
         // The check looks at other parameters, so it runs before the slot is borrowed.
         let value_check = (row.check)(self, at, request.index, request.value as u16);
         let writable = row.rights == Rights::ReadWrite;
         let slot = (row.slot)(self, at);
         match (label, slot) {
-            (rq::READ, Slot::Word(value)) => request.reply(response::WORD, u32::from(*value)),
-            (rq::READ, Slot::Octets(octets)) => {
+            (Rq::Read, Slot::Word(value)) => request.reply(ResponseLabel::Word, u32::from(*value)),
+            (Rq::Read, Slot::Octets(octets)) => {
                 let mut v = [0u8; 4];
                 v[4 - octets.len()..].copy_from_slice(octets);
                 request.reply(
                     if octets.len() > 2 {
-                        response::DWORD
+                        ResponseLabel::Dword
                     } else {
-                        response::WORD
+                        ResponseLabel::Word
                     },
                     u32::from_be_bytes(v),
                 )
             }
-            (rq::READ_ARRAY, Slot::Array(values)) => {
+            (Rq::ReadArray, Slot::Array(values)) => {
                 match values.get(usize::from(request.index).wrapping_sub(1)) {
-                    Some(v) => request.reply(response::ARRAY_WORD, u32::from(*v)),
-                    None => err(error::BAD_SUBINDEX),
+                    Some(v) => request.reply(ResponseLabel::ArrayWord, u32::from(*v)),
+                    None => err(ErrorNumber::BadSubindex),
                 }
             }
-            (rq::ARRAY_COUNT, Slot::Array(values)) => {
-                request.reply(response::ARRAY_COUNT, values.len() as u32)
+            (Rq::ArrayCount, Slot::Array(values)) => {
+                request.reply(ResponseLabel::ArrayCount, values.len() as u32)
             }
-            (rq::WRITE_WORD, Slot::Word(value)) => {
+            (Rq::WriteWord, Slot::Word(value)) => {
                 if !writable {
-                    return err(error::READ_ONLY);
+                    return err(ErrorNumber::ReadOnly);
                 }
                 let new = request.value as u16;
                 if let Err(e) = value_check {
@@ -449,15 +470,15 @@ impl Parameters {
                         _ => self.pending_action,
                     };
                 }
-                request.reply(response::WORD, u32::from(new))
+                request.reply(ResponseLabel::Word, u32::from(new))
             }
-            (rq::WRITE_ARRAY_WORD, Slot::Array(values)) => {
+            (Rq::WriteArrayWord, Slot::Array(values)) => {
                 let i = usize::from(request.index).wrapping_sub(1);
                 if i >= values.len() {
-                    return err(error::BAD_SUBINDEX);
+                    return err(ErrorNumber::BadSubindex);
                 }
                 if !writable {
-                    return err(error::READ_ONLY);
+                    return err(ErrorNumber::ReadOnly);
                 }
                 let new = request.value as u16;
                 if let Err(e) = value_check {
@@ -467,17 +488,17 @@ impl Parameters {
                     values[i] = new;
                     self.flash_writes += 1;
                 }
-                request.reply(response::ARRAY_WORD, u32::from(new))
+                request.reply(ResponseLabel::ArrayWord, u32::from(new))
             }
-            (rq::READ_ELEMENT | rq::WRITE_ELEMENT | rq::WRITE_DWORD | rq::WRITE_ARRAY_DWORD, _) => {
-                err(error::UNSUPPORTED_REQUEST)
+            (Rq::ReadElement | Rq::WriteElement | Rq::WriteDword | Rq::WriteArrayDword, _) => {
+                err(ErrorNumber::UnsupportedRequest)
             }
-            (rq::READ_ARRAY | rq::WRITE_ARRAY_WORD | rq::ARRAY_COUNT, _) => {
-                err(error::NOT_AN_ARRAY)
+            (Rq::ReadArray | Rq::WriteArrayWord | Rq::ArrayCount, _) => {
+                err(ErrorNumber::NotAnArray)
             }
-            (rq::READ | rq::WRITE_WORD, Slot::Array(_)) => err(error::WRONG_DATA_TYPE),
-            (rq::WRITE_WORD, Slot::Octets(_)) => err(error::READ_ONLY),
-            _ => err(error::UNSUPPORTED_REQUEST),
+            (Rq::Read | Rq::WriteWord, Slot::Array(_)) => err(ErrorNumber::WrongDataType),
+            (Rq::WriteWord, Slot::Octets(_)) => err(ErrorNumber::ReadOnly),
+            _ => err(ErrorNumber::UnsupportedRequest),
         }
     }
 
@@ -485,43 +506,43 @@ impl Parameters {
     /// drive answered.
     pub fn drive_reply(request: &Frame, result: Result<u16, DriveError>) -> Frame {
         match result {
-            Ok(v) => request.reply(response::ARRAY_WORD, u32::from(v)),
-            Err(e) => request.reply(response::ERROR, u32::from(link_error(e))),
+            Ok(v) => request.reply(ResponseLabel::ArrayWord, u32::from(v)),
+            Err(e) => request.refuse(link_error(e)),
         }
     }
 }
 
 /// The PROFIdrive error number for what the drive or its link reported.
-fn link_error(e: DriveError) -> u16 {
+fn link_error(e: DriveError) -> ErrorNumber {
     match e {
-        DriveError::NoAnswer => error::TIMEOUT,
-        DriveError::BusNoise | DriveError::CrcError => error::COMMUNICATION_ERROR,
-        DriveError::MemoryFault => error::FLASH_WRITE_FAILED,
-        DriveError::InvalidData => error::OUT_OF_RANGE,
-        DriveError::IllegalAddress => error::ILLEGAL_PNU,
-        DriveError::AccessRestricted => error::READ_ONLY,
-        DriveError::IllegalOperation | DriveError::DriveFault => error::OPERATING_STATE,
+        DriveError::NoAnswer => ErrorNumber::Timeout,
+        DriveError::BusNoise | DriveError::CrcError => ErrorNumber::CommunicationError,
+        DriveError::MemoryFault => ErrorNumber::FlashWriteFailed,
+        DriveError::InvalidData => ErrorNumber::OutOfRange,
+        DriveError::IllegalAddress => ErrorNumber::IllegalPnu,
+        DriveError::AccessRestricted => ErrorNumber::ReadOnly,
+        DriveError::IllegalOperation | DriveError::DriveFault => ErrorNumber::OperatingState,
     }
 }
 
 /// Drive parameters: PNU and IND are the high and low byte of xxyy; data sets have none. The
 /// access a request needs, or its refusal.
 fn drive_access(request: &Frame) -> Result<Frame, Access> {
-    use self::request as rq;
-    let err = |e: u16| Ok(request.reply(response::ERROR, u32::from(e)));
+    use RequestLabel as Rq;
+    let err = |e: ErrorNumber| Ok(request.refuse(e));
     let number = (request.pnu << 8) | u16::from(request.index);
     let Some(code) = drive_parameter(number) else {
-        return err(error::ILLEGAL_PNU);
+        return err(ErrorNumber::IllegalPnu);
     };
-    match request.label {
-        rq::READ_ARRAY | rq::READ => Err(Access::Read(code)),
-        rq::WRITE_ARRAY_WORD | rq::WRITE_WORD => {
+    match request.request_label() {
+        Rq::ReadArray | Rq::Read => Err(Access::Read(code)),
+        Rq::WriteArrayWord | Rq::WriteWord => {
             if !code.is_writable() {
-                return err(error::READ_ONLY);
+                return err(ErrorNumber::ReadOnly);
             }
             Err(Access::Write(code, request.value as u16))
         }
-        _ => err(error::UNSUPPORTED_REQUEST),
+        _ => err(ErrorNumber::UnsupportedRequest),
     }
 }
 
@@ -534,13 +555,13 @@ mod tests {
     fn run(
         p: &mut Parameters,
         drive: &mut MockDrive,
-        label: u8,
+        label: RequestLabel,
         pnu: u16,
         index: u8,
         value: u32,
     ) -> Frame {
         let request = Frame {
-            label,
+            label: label.into(),
             pnu,
             index,
             value,
@@ -569,9 +590,10 @@ mod tests {
         let mut drive = MockDrive::default();
         for row in TABLE {
             for pnu in row.first..=row.last {
-                let word = run(&mut p, &mut drive, request::READ, pnu, 0, 0);
-                let array = run(&mut p, &mut drive, request::READ_ARRAY, pnu, 1, 0);
-                let answered = |f: &Frame| f.label != response::ERROR || f.value != 0;
+                let word = run(&mut p, &mut drive, RequestLabel::Read, pnu, 0, 0);
+                let array = run(&mut p, &mut drive, RequestLabel::ReadArray, pnu, 1, 0);
+                let answered =
+                    |f: &Frame| f.response_label() != ResponseLabel::Error || f.value != 0;
                 assert!(answered(&word) || answered(&array), "{pnu}");
             }
         }
@@ -592,23 +614,29 @@ mod tests {
         let mut drive = MockDrive::default();
         drive.set(0xF029, 0x1234);
         // 1.29 is 129 = 0081h: PNU 0, IND 81h (IND 1-99 of PNU 0 would be a data set).
-        let r = run(&mut p, &mut drive, request::READ_ARRAY, 0x00, 0x81, 0);
-        assert_eq!((r.label, r.value), (response::ARRAY_WORD, 0x1234));
+        let r = run(&mut p, &mut drive, RequestLabel::ReadArray, 0x00, 0x81, 0);
+        assert_eq!(
+            (r.response_label(), r.value),
+            (ResponseLabel::ArrayWord, 0x1234)
+        );
         let r = run(
             &mut p,
             &mut drive,
-            request::WRITE_ARRAY_WORD,
+            RequestLabel::WriteArrayWord,
             0x04,
             0xB2,
             300,
         );
-        assert_eq!((r.label, r.value), (response::ARRAY_WORD, 300));
+        assert_eq!(
+            (r.response_label(), r.value),
+            (ResponseLabel::ArrayWord, 300)
+        );
         assert_eq!(drive.get(0xFB02), 300);
         // Writing the same value again does not wear the drive's memory.
         run(
             &mut p,
             &mut drive,
-            request::WRITE_ARRAY_WORD,
+            RequestLabel::WriteArrayWord,
             0x04,
             0xB2,
             300,
@@ -616,12 +644,12 @@ mod tests {
         assert_eq!(drive.persistent_writes, 1);
         // 84.11 is no parameter of this drive; data sets neither.
         assert_eq!(
-            run(&mut p, &mut drive, request::READ_ARRAY, 0x20, 0xDB, 0).label,
-            response::ERROR
+            run(&mut p, &mut drive, RequestLabel::ReadArray, 0x20, 0xDB, 0).response_label(),
+            ResponseLabel::Error
         );
         assert_eq!(
-            run(&mut p, &mut drive, request::READ_ARRAY, 0, 1, 0).value,
-            u32::from(error::ILLEGAL_PNU)
+            run(&mut p, &mut drive, RequestLabel::ReadArray, 0, 1, 0).value,
+            u32::from(u16::from(ErrorNumber::IllegalPnu))
         );
     }
 
@@ -632,10 +660,10 @@ mod tests {
             ..Parameters::default()
         };
         let mut drive = MockDrive::default();
-        let r = run(&mut p, &mut drive, request::READ, 918, 0, 0);
-        assert_eq!((r.label, r.value), (response::WORD, 2));
-        let r = run(&mut p, &mut drive, request::WRITE_WORD, 971, 0, 1);
-        assert_eq!((r.label, r.value), (response::WORD, 1));
+        let r = run(&mut p, &mut drive, RequestLabel::Read, 918, 0, 0);
+        assert_eq!((r.response_label(), r.value), (ResponseLabel::Word, 2));
+        let r = run(&mut p, &mut drive, RequestLabel::WriteWord, 971, 0, 1);
+        assert_eq!((r.response_label(), r.value), (ResponseLabel::Word, 1));
         assert_eq!(p.pending_action, Some(Action::SaveToFlash));
     }
 
@@ -644,25 +672,28 @@ mod tests {
         let mut p = Parameters::default();
         p.fault_codes[0] = 0x2300;
         let mut drive = MockDrive::default();
-        let r = run(&mut p, &mut drive, request::READ_ARRAY, 945, 1, 0);
-        assert_eq!((r.label, r.value), (response::ARRAY_WORD, 0x2300));
+        let r = run(&mut p, &mut drive, RequestLabel::ReadArray, 945, 1, 0);
+        assert_eq!(
+            (r.response_label(), r.value),
+            (ResponseLabel::ArrayWord, 0x2300)
+        );
         for sub in FAULT_SUBINDICES {
             assert_eq!(
-                run(&mut p, &mut drive, request::READ_ARRAY, 945, sub, 0).label,
-                response::ARRAY_WORD
+                run(&mut p, &mut drive, RequestLabel::ReadArray, 945, sub, 0).response_label(),
+                ResponseLabel::ArrayWord
             );
         }
         assert_eq!(
-            run(&mut p, &mut drive, request::ARRAY_COUNT, 947, 0, 0).value,
+            run(&mut p, &mut drive, RequestLabel::ArrayCount, 947, 0, 0).value,
             64
         );
         assert_eq!(
-            run(&mut p, &mut drive, request::READ_ARRAY, 945, 65, 0).value,
-            u32::from(error::BAD_SUBINDEX)
+            run(&mut p, &mut drive, RequestLabel::ReadArray, 945, 65, 0).value,
+            u32::from(u16::from(ErrorNumber::BadSubindex))
         );
         assert_eq!(
-            run(&mut p, &mut drive, request::WRITE_ARRAY_WORD, 945, 1, 0).value,
-            u32::from(error::READ_ONLY)
+            run(&mut p, &mut drive, RequestLabel::WriteArrayWord, 945, 1, 0).value,
+            u32::from(u16::from(ErrorNumber::ReadOnly))
         );
     }
 
@@ -672,12 +703,28 @@ mod tests {
         let mut drive = MockDrive::default();
         // PZD3 out writes 12.02, PZD3 in reads 1.04.
         assert_eq!(
-            run(&mut p, &mut drive, request::WRITE_ARRAY_WORD, 915, 3, 1202).label,
-            response::ARRAY_WORD
+            run(
+                &mut p,
+                &mut drive,
+                RequestLabel::WriteArrayWord,
+                915,
+                3,
+                1202
+            )
+            .response_label(),
+            ResponseLabel::ArrayWord
         );
         assert_eq!(
-            run(&mut p, &mut drive, request::WRITE_ARRAY_WORD, 916, 3, 104).label,
-            response::ARRAY_WORD
+            run(
+                &mut p,
+                &mut drive,
+                RequestLabel::WriteArrayWord,
+                916,
+                3,
+                104
+            )
+            .response_label(),
+            ResponseLabel::ArrayWord
         );
         assert_eq!((p.pzd_out[2], p.pzd_in[2]), (1202, 104));
         // 10000 and up, data sets of another drive, PZD1/PZD2: refused with 120.
@@ -685,14 +732,17 @@ mod tests {
             let r = run(
                 &mut p,
                 &mut drive,
-                request::WRITE_ARRAY_WORD,
+                RequestLabel::WriteArrayWord,
                 915,
                 index,
                 value,
             );
             assert_eq!(
-                (r.label, r.value),
-                (response::ERROR, u32::from(error::NOT_MAPPABLE_TO_PZD))
+                (r.response_label(), r.value),
+                (
+                    ResponseLabel::Error,
+                    u32::from(u16::from(ErrorNumber::NotMappableToPzd))
+                )
             );
         }
         assert_eq!(pzd_target(0), Ok(None));
@@ -702,64 +752,91 @@ mod tests {
     fn response_labels_and_error_numbers() {
         let mut p = Parameters::default();
         let mut drive = MockDrive::default();
-        let e = |f: Frame| (f.label, f.value as u16);
+        let e = |f: Frame| (f.response_label(), ErrorNumber::from(f.value as u16));
         assert_eq!(
-            e(run(&mut p, &mut drive, request::READ, 999, 0, 0)),
-            (response::ERROR, error::ILLEGAL_PNU)
+            e(run(&mut p, &mut drive, RequestLabel::Read, 999, 0, 0)),
+            (ResponseLabel::Error, ErrorNumber::IllegalPnu)
         );
         assert_eq!(
-            e(run(&mut p, &mut drive, request::WRITE_WORD, 968, 0, 1)),
-            (response::ERROR, error::READ_ONLY)
+            e(run(&mut p, &mut drive, RequestLabel::WriteWord, 968, 0, 1)),
+            (ResponseLabel::Error, ErrorNumber::ReadOnly)
         );
         assert_eq!(
-            e(run(&mut p, &mut drive, request::WRITE_WORD, 927, 0, 2)),
-            (response::ERROR, error::OUT_OF_RANGE)
+            e(run(&mut p, &mut drive, RequestLabel::WriteWord, 927, 0, 2)),
+            (ResponseLabel::Error, ErrorNumber::OutOfRange)
         );
         assert_eq!(
-            e(run(&mut p, &mut drive, request::READ_ELEMENT, 918, 0, 0)),
-            (response::ERROR, error::UNSUPPORTED_REQUEST)
+            e(run(
+                &mut p,
+                &mut drive,
+                RequestLabel::ReadElement,
+                918,
+                0,
+                0
+            )),
+            (ResponseLabel::Error, ErrorNumber::UnsupportedRequest)
         );
         assert_eq!(
-            e(run(&mut p, &mut drive, request::READ_ARRAY, 918, 1, 0)),
-            (response::ERROR, error::NOT_AN_ARRAY)
+            e(run(&mut p, &mut drive, RequestLabel::ReadArray, 918, 1, 0)),
+            (ResponseLabel::Error, ErrorNumber::NotAnArray)
         );
         assert_eq!(
-            e(run(&mut p, &mut drive, request::READ, 915, 0, 0)),
-            (response::ERROR, error::WRONG_DATA_TYPE)
+            e(run(&mut p, &mut drive, RequestLabel::Read, 915, 0, 0)),
+            (ResponseLabel::Error, ErrorNumber::WrongDataType)
         );
         assert_eq!(
-            e(run(&mut p, &mut drive, request::WRITE_WORD, 930, 0, 0x8001)),
-            (response::ERROR, 140)
+            e(run(
+                &mut p,
+                &mut drive,
+                RequestLabel::WriteWord,
+                930,
+                0,
+                0x8001
+            )),
+            // Seed 004's number for "no torque mode", not the name's.
+            (ResponseLabel::Error, ErrorNumber::from(140))
         );
+        let ppo = run(&mut p, &mut drive, RequestLabel::Read, 929, 0, 0);
+        assert_eq!((ppo.response_label(), ppo.value), (ResponseLabel::Word, 1));
         assert_eq!(
-            e(run(&mut p, &mut drive, request::READ, 929, 0, 0)),
-            (response::WORD, 1)
-        );
-        assert_eq!(
-            e(run(&mut p, &mut drive, request::READ, 965, 0, 0)).0,
-            response::WORD
+            e(run(&mut p, &mut drive, RequestLabel::Read, 965, 0, 0)).0,
+            ResponseLabel::Word
         );
         // 927 = 0: PKW writes refused with label 8, except to 927 itself.
-        run(&mut p, &mut drive, request::WRITE_WORD, 927, 0, 0);
+        run(&mut p, &mut drive, RequestLabel::WriteWord, 927, 0, 0);
         assert_eq!(
-            run(&mut p, &mut drive, request::WRITE_WORD, 918, 0, 5).label,
-            response::NO_PKW_RIGHTS
+            run(&mut p, &mut drive, RequestLabel::WriteWord, 918, 0, 5).response_label(),
+            ResponseLabel::NoPkwRights
         );
         assert_eq!(
-            run(&mut p, &mut drive, request::WRITE_WORD, 927, 0, 1).label,
-            response::WORD
+            run(&mut p, &mut drive, RequestLabel::WriteWord, 927, 0, 1).response_label(),
+            ResponseLabel::Word
         );
         // The drive link's own failure: 111 (timeout) for no answer, 103 for a bad answer.
         drive.disconnected = true;
         assert_eq!(
-            e(run(&mut p, &mut drive, request::READ_ARRAY, 0x00, 0x81, 0)),
-            (response::ERROR, error::TIMEOUT)
+            e(run(
+                &mut p,
+                &mut drive,
+                RequestLabel::ReadArray,
+                0x00,
+                0x81,
+                0
+            )),
+            (ResponseLabel::Error, ErrorNumber::Timeout)
         );
         drive.disconnected = false;
         drive.fail_next = Some(DriveError::CrcError);
         assert_eq!(
-            e(run(&mut p, &mut drive, request::READ_ARRAY, 0x00, 0x81, 0)),
-            (response::ERROR, error::COMMUNICATION_ERROR)
+            e(run(
+                &mut p,
+                &mut drive,
+                RequestLabel::ReadArray,
+                0x00,
+                0x81,
+                0
+            )),
+            (ResponseLabel::Error, ErrorNumber::CommunicationError)
         );
     }
 

@@ -20,14 +20,13 @@ use crate::drive::{Access, Drive, DriveError, ParamRequest};
 
 pub const PKW_BYTES: usize = 8;
 
-/// The task a request asks for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Task {
-    None,
-    Read,
-    Write,
-    Unknown(u8),
+dp_consts::code_point! {
+    /// The task a request asks for (its ID, the high nibble of byte 0).
+    pub enum Task {
+        None = 0,
+        Read = 1,
+        Write = 2,
+    }
 }
 
 /// A decoded request.
@@ -41,27 +40,15 @@ pub struct Request {
 
 impl Request {
     pub fn decode(bytes: &[u8; PKW_BYTES]) -> Request {
-        let task = match bytes[0] >> 4 {
-            0 => Task::None,
-            1 => Task::Read,
-            2 => Task::Write,
-            other => Task::Unknown(other),
-        };
         Request {
-            task,
+            task: Task::from(bytes[0] >> 4),
             code: FunctionCode(u16::from_be_bytes([bytes[1], bytes[2]])),
             value: u16::from_be_bytes([bytes[6], bytes[7]]),
         }
     }
 
     pub fn encode(&self) -> [u8; PKW_BYTES] {
-        let id = match self.task {
-            Task::None => 0,
-            Task::Read => 1,
-            Task::Write => 2,
-            Task::Unknown(id) => id & 0x0F,
-        };
-        frame(id, self.code, self.value)
+        frame(u8::from(self.task) & 0x0F, self.code, self.value)
     }
 }
 
@@ -80,9 +67,14 @@ pub enum Reply {
     },
 }
 
-pub const REPLY_NONE: u8 = 0;
-pub const REPLY_VALUE: u8 = 1;
-pub const REPLY_REFUSED: u8 = 7;
+dp_consts::code_point! {
+    /// A reply's ID (the high nibble of byte 0).
+    pub enum ReplyId {
+        None = 0,
+        Value = 1,
+        Refused = 7,
+    }
+}
 
 fn frame(id: u8, code: FunctionCode, value: u16) -> [u8; PKW_BYTES] {
     let [fid_h, fid_l] = code.0.to_be_bytes();
@@ -94,8 +86,10 @@ impl Reply {
     pub fn encode(&self) -> [u8; PKW_BYTES] {
         match *self {
             Reply::None => [0; PKW_BYTES],
-            Reply::Value { code, value } => frame(REPLY_VALUE, code, value),
-            Reply::Refused { code, error } => frame(REPLY_REFUSED, code, u16::from(error.code())),
+            Reply::Value { code, value } => frame(ReplyId::Value.into(), code, value),
+            Reply::Refused { code, error } => {
+                frame(ReplyId::Refused.into(), code, u16::from(error.code()))
+            }
         }
     }
 }

@@ -123,7 +123,7 @@ fn ppo1_pkw_read_write_and_fault_reset() {
 
 #[test]
 fn ppo1_in_the_profidrive_profile() {
-    use profidrive::pd_params::response;
+    use profidrive::pd_params::ResponseLabel;
     use profidrive::prm::OperationMode;
     use profidrive::profile::{control as pd, status as pds};
     let mut prm = UserPrm::DEFAULT;
@@ -142,7 +142,7 @@ fn ppo1_in_the_profidrive_profile() {
     assert_eq!(bus.slave.app().drive().get(SET_FREQUENCY), 2500);
     // PKW: read 964 (the Ident_Number) with request label 1.
     let inputs = until(&mut bus, &[0x1000 | 964, 0, 0, 0, run, 0x2000], |i| {
-        i[0] >> 12 == u16::from(response::WORD) && i[0] & 0x7FF == 964
+        i[0] >> 12 == u16::from(u8::from(ResponseLabel::Word)) && i[0] & 0x7FF == 964
     });
     assert_eq!(inputs[3], dp_consts::ADAPTER_IDENT_NUMBER);
     // A fault trips, a 0 -> 1 of RESET clears it back to SWITCH-ON INHIBIT.

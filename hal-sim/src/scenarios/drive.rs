@@ -16,8 +16,8 @@ use drive_link::LED_ACTIVITY_US;
 use drive_sim::{DriveSim, LinkFault, ACCEL_TIME, DECEL_TIME, OUTPUT_CURRENT, SET_FREQUENCY};
 use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
 use profidrive::codes::FunctionCode;
-use profidrive::pd_params::{request as rq, response, Frame};
-use profidrive::pkw::{Request, Task, REPLY_REFUSED, REPLY_VALUE};
+use profidrive::pd_params::{Frame, RequestLabel, ResponseLabel};
+use profidrive::pkw::{ReplyId, Request, Task};
 use profidrive::ppo::Ppo;
 use profidrive::prm::{FailSafeMode, OperationMode, UserPrm};
 use profidrive::profile::{control as pd, status as pds};
@@ -130,8 +130,10 @@ fn vendor_request(task: Task, code: u16, value: u16) -> [u16; 4] {
 }
 
 /// A vendor PKW reply: (reply ID, value).
-fn vendor_reply(reply: &Option<Vec<u16>>) -> Option<(u8, u16)> {
-    reply.as_ref().map(|r| ((r[0] >> 12) as u8, r[3]))
+fn vendor_reply(reply: &Option<Vec<u16>>) -> Option<(ReplyId, u16)> {
+    reply
+        .as_ref()
+        .map(|r| (ReplyId::from((r[0] >> 12) as u8), r[3]))
 }
 
 /// Seed 000 in the vendor profile, PPO1: parameters, a run with the ramp, reverse, quick and
@@ -145,12 +147,12 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     let r = pkw(sim, vendor_request(Task::Write, ACCEL_TIME, 10), &idle)?;
     c.check(
         "PKW write F0.13 = 10: reply 1 with the value",
-        vendor_reply(&r) == Some((REPLY_VALUE, 10)),
+        vendor_reply(&r) == Some((ReplyId::Value, 10)),
     );
     let r = pkw(sim, vendor_request(Task::Write, DECEL_TIME, 10), &idle)?;
     c.check(
         "PKW write F0.14 = 10: reply 1",
-        vendor_reply(&r) == Some((REPLY_VALUE, 10)),
+        vendor_reply(&r) == Some((ReplyId::Value, 10)),
     );
     let held = sim.drive_now().read_register(ACCEL_TIME) == Ok(10)
         && sim.drive_now().read_register(DECEL_TIME) == Ok(10);
@@ -158,22 +160,22 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &idle)?;
     c.check(
         "PKW read F0.13: reply 1, 10",
-        vendor_reply(&r) == Some((REPLY_VALUE, 10)),
+        vendor_reply(&r) == Some((ReplyId::Value, 10)),
     );
     let r = pkw(sim, vendor_request(Task::Read, 0xF058, 0), &idle)?;
     c.check(
         "PKW read F0.58 (no such parameter): reply 7, 0x02 illegal address",
-        vendor_reply(&r) == Some((REPLY_REFUSED, 0x02)),
+        vendor_reply(&r) == Some((ReplyId::Refused, 0x02)),
     );
     let r = pkw(sim, vendor_request(Task::Write, 0xD000, 1), &idle)?;
     c.check(
         "PKW write D0.00 (a status value): reply 7, 0x11 access restricted",
-        vendor_reply(&r) == Some((REPLY_REFUSED, 0x11)),
+        vendor_reply(&r) == Some((ReplyId::Refused, 0x11)),
     );
     let r = pkw(sim, vendor_request(Task::Write, SET_FREQUENCY, 9000), &idle)?;
     c.check(
         "PKW write F0.29 above F0.10: reply 7, 0x03 invalid data",
-        vendor_reply(&r) == Some((REPLY_REFUSED, 0x03)),
+        vendor_reply(&r) == Some((ReplyId::Refused, 0x03)),
     );
     let r = pkw(
         sim,
@@ -182,7 +184,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     )?;
     c.check(
         "PKW task 5: reply 7, 0x01 illegal operation",
-        vendor_reply(&r) == Some((REPLY_REFUSED, 0x01)),
+        vendor_reply(&r) == Some((ReplyId::Refused, 0x01)),
     );
 
     // Run at 25.00 Hz: the ramp of 1.0 s to 50.00 Hz gets there in 0.5 s.
@@ -241,7 +243,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     let r = pkw(sim, vendor_request(Task::Read, 0xDE00, 0), &out[4..])?;
     c.check(
         "PKW read DE.00: 0x8C (Fu.012)",
-        vendor_reply(&r) == Some((REPLY_VALUE, 0x8C)),
+        vendor_reply(&r) == Some((ReplyId::Value, 0x8C)),
     );
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
     c.check(
@@ -281,7 +283,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &out[4..])?;
     c.check(
         "PKW to a drive that does not answer: reply 7, 0x22",
-        vendor_reply(&r) == Some((REPLY_REFUSED, 0x22)),
+        vendor_reply(&r) == Some((ReplyId::Refused, 0x22)),
     );
     sim.drive_now().link_fault = LinkFault::CrcError;
     let crc = wait(sim, 50_000, |i, _| i[4] == 0xC023)?;
@@ -323,10 +325,10 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     Ok(Vec::new())
 }
 
-fn pd_request(label: u8, pnu: u16, index: u8, value: u32) -> [u16; 4] {
+fn pd_request(label: RequestLabel, pnu: u16, index: u8, value: u32) -> [u16; 4] {
     let w = words(
         &Frame {
-            label,
+            label: label.into(),
             pnu,
             index,
             value,
@@ -336,7 +338,7 @@ fn pd_request(label: u8, pnu: u16, index: u8, value: u32) -> [u16; 4] {
     [w[0], w[1], w[2], w[3]]
 }
 
-fn pd_reply(reply: &Option<Vec<u16>>) -> Option<(u8, u32)> {
+fn pd_reply(reply: &Option<Vec<u16>>) -> Option<(ResponseLabel, u32)> {
     reply.as_ref().map(|r| {
         let frame = Frame::decode(
             &r.iter()
@@ -345,7 +347,7 @@ fn pd_reply(reply: &Option<Vec<u16>>) -> Option<(u8, u32)> {
                 .try_into()
                 .unwrap(),
         );
-        (frame.label, frame.value)
+        (frame.response_label(), frame.value)
     })
 }
 
@@ -368,38 +370,43 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> i
     for pnu_number in [113u16, 114] {
         let r = pkw(
             sim,
-            pd_request(rq::WRITE_WORD, pnu_number >> 8, pnu_number as u8, 10),
+            pd_request(
+                RequestLabel::WriteWord,
+                pnu_number >> 8,
+                pnu_number as u8,
+                10,
+            ),
             &out[4..],
         )?;
         c.check(
             format!("PKW write drive parameter {pnu_number} = 10: accepted"),
-            pd_reply(&r).is_some_and(|(l, v)| l == response::ARRAY_WORD && v == 10),
+            pd_reply(&r).is_some_and(|(l, v)| l == ResponseLabel::ArrayWord && v == 10),
         );
     }
-    let r = pkw(sim, pd_request(rq::READ, 918, 0, 0), &out[4..])?;
+    let r = pkw(sim, pd_request(RequestLabel::Read, 918, 0, 0), &out[4..])?;
     c.check(
         "PKW read 918 (node address): 8",
-        pd_reply(&r) == Some((response::WORD, u32::from(SWITCH_ADDRESS))),
+        pd_reply(&r) == Some((ResponseLabel::Word, u32::from(SWITCH_ADDRESS))),
     );
-    let r = pkw(sim, pd_request(rq::READ, 999, 0, 0), &out[4..])?;
+    let r = pkw(sim, pd_request(RequestLabel::Read, 999, 0, 0), &out[4..])?;
     c.check(
         "PKW read 999 (no such parameter): error 0",
-        pd_reply(&r) == Some((response::ERROR, 0)),
+        pd_reply(&r) == Some((ResponseLabel::Error, 0)),
     );
     let r = pkw(
         sim,
-        pd_request(rq::WRITE_WORD, 2100 >> 8, 2100u16 as u8, 5),
+        pd_request(RequestLabel::WriteWord, 2100 >> 8, 2100u16 as u8, 5),
         &out[4..],
     )?;
     c.check(
         "PKW write drive parameter 2100 (D0.00, a status value): error 1, read only",
-        pd_reply(&r) == Some((response::ERROR, 1)),
+        pd_reply(&r) == Some((ResponseLabel::Error, 1)),
     );
     sim.drive_now().link_fault = LinkFault::NoAnswer;
-    let r = pkw(sim, pd_request(rq::READ, 0, 113, 0), &out[4..])?;
+    let r = pkw(sim, pd_request(RequestLabel::Read, 0, 113, 0), &out[4..])?;
     c.check(
         "PKW read 113 from a drive that does not answer: error 111, timeout",
-        pd_reply(&r) == Some((response::ERROR, 111)),
+        pd_reply(&r) == Some((ResponseLabel::Error, 111)),
     );
     sim.drive_now().link_fault = LinkFault::None;
     out[4] = pd::OPERATE;
@@ -448,10 +455,14 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> i
     sim.drive_now().inject_fault(12);
     let tripped = wait(sim, 50_000, |i, _| i[4] & pds::TRIPPED != 0)?;
     c.check("Fu.012: status word bit 3 (fault)", tripped);
-    let r = pkw(sim, pd_request(rq::READ_ARRAY, 945, 1, 0), &out[4..])?;
+    let r = pkw(
+        sim,
+        pd_request(RequestLabel::ReadArray, 945, 1, 0),
+        &out[4..],
+    )?;
     c.check(
         "PKW read 945[1] (fault code): 12",
-        pd_reply(&r) == Some((response::ARRAY_WORD, 12)),
+        pd_reply(&r) == Some((ResponseLabel::ArrayWord, 12)),
     );
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
     c.check(
@@ -538,20 +549,28 @@ pub fn fieldbus_group<F: Firmware>(
         ),
         refreshed,
     );
-    let r915 = pkw(sim, pd_request(rq::READ_ARRAY, 915, 3, 0), &out[4..])?;
-    let r916 = pkw(sim, pd_request(rq::READ_ARRAY, 916, 3, 0), &out[4..])?;
+    let r915 = pkw(
+        sim,
+        pd_request(RequestLabel::ReadArray, 915, 3, 0),
+        &out[4..],
+    )?;
+    let r916 = pkw(
+        sim,
+        pd_request(RequestLabel::ReadArray, 916, 3, 0),
+        &out[4..],
+    )?;
     c.check(
         "915[3] = 113 and 916[3] = 2104, as the drive set them",
-        pd_reply(&r915) == Some((response::ARRAY_WORD, 113))
-            && pd_reply(&r916) == Some((response::ARRAY_WORD, 2104)),
+        pd_reply(&r915) == Some((ResponseLabel::ArrayWord, 113))
+            && pd_reply(&r916) == Some((ResponseLabel::ArrayWord, 2104)),
     );
     // A 916 write from the master lands in the drive's group: PZD4 IN <- 2100 (D0.00).
     let r = pkw(
         sim,
-        pd_request(rq::WRITE_ARRAY_WORD, 916, 4, 2100),
+        pd_request(RequestLabel::WriteArrayWord, 916, 4, 2100),
         &out[4..],
     )?;
-    let written = pd_reply(&r) == Some((response::ARRAY_WORD, 2100))
+    let written = pd_reply(&r) == Some((ResponseLabel::ArrayWord, 2100))
         && wait(sim, 100_000, |_, d| group(d, fb::PZD3_OUT + 3) == 2100)?;
     c.check(
         "916[4] = 2100 written by the master: the drive's 51.08 follows",

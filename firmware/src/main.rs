@@ -275,6 +275,12 @@ macro_rules! adapter_app {
                     while (crate::drive_uart::received().wrapping_sub(drive_rx_bytes) as i32) < 0 {}
                     start = board::timestamp();
                 }
+                // A step of the cycle is counted from here: on a board it follows the look at
+                // the empty queue, with no frame to receive or decode.
+                #[cfg(feature = "sim")]
+                if let ToAdapter::Sim(dp_link::sim::SimToAdapter::Continue) = *message {
+                    start = board::timestamp();
+                }
                 if let ToAdapter::Boot { switch, nv, .. } = *message {
                     let app = adapter::drive_app(crate::drive_uart::DriveUart::new());
                     let adapter = Adapter::boot(switch, nv, app);

@@ -128,6 +128,16 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
         let now_running = peripheral.is_running();
         if running && !now_running {
             left += 1;
+            // What the master last saw, for the one run in eight that leaves (issue 16).
+            let diag = peripheral
+                .last_diagnostics()
+                .map(|d| format!("{:?}, locked to {:?}", d.flags, d.master_address));
+            eprintln!(
+                "pty check: the master left data exchange at {:.1} s after {cycles} cycles and \
+                 {bursts} bursts; its last diagnosis: {}",
+                start.elapsed().as_secs_f64(),
+                diag.as_deref().unwrap_or("none")
+            );
         }
         if !running && now_running {
             moved_at = Instant::now();

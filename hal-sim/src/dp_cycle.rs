@@ -80,13 +80,8 @@ fn ns(ticks: Tick) -> u64 {
     ticks * 1000 / u64::from(CLOCK_HZ / 1_000_000)
 }
 
-/// Bits one telegram of `repr` takes on the line.
-fn telegram_bits(repr: &fdl::Repr) -> u64 {
-    11 * repr.buffer_len() as u64
-}
-
-/// The floor of one cycle: for each slave TSYN + request + min TSDR + response, in bit times.
-pub fn floor_bits(ppo: Ppo, slaves: usize) -> u64 {
+/// The bytes of a Data_Exchange request and of its response with `ppo`'s process data.
+pub fn data_exchange_bytes(ppo: Ppo) -> (usize, usize) {
     let io = dp_slave::cfg::io_sizes(ppo.cfg()).expect("a PPO sizes");
     let outputs = vec![0u8; io.outputs];
     let inputs = vec![0u8; io.inputs];
@@ -110,10 +105,17 @@ pub fn floor_bits(ppo: Ppo, slaves: usize) -> u64 {
         fc: fdl::FrameControl::slave_response(fdl::ResponseStatus::DataLow),
         payload: &inputs,
     });
+    (request.buffer_len(), response.buffer_len())
+}
+
+/// The floor of one cycle: for each slave TSYN + request + min TSDR + response, in bit times.
+pub fn floor_bits(ppo: Ppo, slaves: usize) -> u64 {
+    let (request, response) = data_exchange_bytes(ppo);
+    let bits = |bytes: usize| u64::from(dp_consts::BITS_PER_CHAR) * bytes as u64;
     let per_slave = u64::from(dp_consts::TSYN_BITS)
-        + telegram_bits(&request)
+        + bits(request)
         + u64::from(dp_consts::MIN_TSDR_BITS)
-        + telegram_bits(&response);
+        + bits(response);
     per_slave * slaves as u64
 }
 

@@ -179,8 +179,7 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
         left_data_exchange: left,
         bursts,
         junk_bytes,
-        // SD2, LE, LEr, SD2, DA, SA, FC, the outputs, FCS, ED.
-        data_exchange_request_len: 9 + ppo.io_bytes() as u64,
+        data_exchange_request_len: hal_sim::dp_cycle::data_exchange_bytes(ppo).0 as u64,
         inputs_followed: inputs_changed && longest_still <= FOLLOW_WINDOW,
         longest_still,
     })

@@ -21,6 +21,18 @@ use std::time::{Duration, Instant};
 struct PtyPhy {
     port: TTYPort,
     received: Vec<u8>,
+    /// The last telegrams each way, with their times, for a report when the master leaves
+    /// data exchange.
+    trace: std::collections::VecDeque<(Instant, &'static str, Vec<u8>)>,
+}
+
+impl PtyPhy {
+    fn record(&mut self, way: &'static str, bytes: &[u8]) {
+        if self.trace.len() == 200 {
+            self.trace.pop_front();
+        }
+        self.trace.push_back((Instant::now(), way, bytes.to_vec()));
+    }
 }
 
 impl ProfibusPhy for PtyPhy {
@@ -36,6 +48,7 @@ impl ProfibusPhy for PtyPhy {
         let (len, result) = f(&mut buffer);
         if len > 0 {
             self.received.clear();
+            self.record("tx", &buffer[..len]);
             let _ = self.port.write_all(&buffer[..len]);
             let _ = self.port.flush();
         }
@@ -49,6 +62,7 @@ impl ProfibusPhy for PtyPhy {
         if let Ok(n) = self.port.bytes_to_read() {
             let mut buffer = vec![0u8; n as usize];
             if n > 0 && self.port.read_exact(&mut buffer).is_ok() {
+                self.record("rx", &buffer);
                 self.received.extend_from_slice(&buffer);
             }
         }
@@ -83,6 +97,7 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
     let mut phy = PtyPhy {
         port,
         received: Vec::new(),
+        trace: Default::default(),
     };
     let mut dp = DpMaster::new(vec![]);
     // The PZD follow the PKW where there is one: PZD1 the control or status word, PZD2 the
@@ -116,6 +131,7 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
     let start = Instant::now();
     let (mut cycles, mut left, mut bursts, mut junk_bytes) = (0u64, 0u64, 0u64, 0u64);
     let mut running = false;
+    let mut dump_at = None;
     // When the actual frequency last moved, and the longest it stood still in data exchange.
     let (mut last_actual, mut moved_at) = (None::<u16>, Instant::now());
     let mut longest_still = Duration::ZERO;
@@ -138,6 +154,13 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
                 start.elapsed().as_secs_f64(),
                 diag.as_deref().unwrap_or("none")
             );
+            dump_at = Some(Instant::now() + Duration::from_millis(100));
+        }
+        if dump_at.is_some_and(|at| Instant::now() >= at) {
+            dump_at = None;
+            for (at, way, bytes) in &phy.trace {
+                eprintln!("  {:>10} us {way} {bytes:02X?}", (*at - start).as_micros());
+            }
         }
         if !running && now_running {
             moved_at = Instant::now();
@@ -164,6 +187,7 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
             if bursts < BURSTS && bursts < due {
                 let len = rng.gen_range(1..64);
                 let junk: Vec<u8> = (0..len).map(|_| rng.gen()).collect();
+                phy.record("junk", &junk);
                 let _ = phy.port.write_all(&junk);
                 bursts += 1;
                 junk_bytes += len as u64;

@@ -15,7 +15,7 @@
 //! cannot come from two decimal digits; it is treated as 0, the setting that keeps the stored
 //! configuration, and the boot log says so.
 //!
-//! The drive's fieldbus group 51 (seed 004, `drive_link::fieldbus`): the adapter shows its
+//! The drive's fieldbus group 51 (seed 004, `profidrive::fieldbus_group`): the adapter shows its
 //! module type, address, baud rate and PPO type there, and takes the PZD3-10 mapping (the
 //! PROFIdrive 915/916 it keeps) from it at link-up and on each FBA PAR REFRESH; a 915/916
 //! write goes back into the group. With the switch at 0, the node address 51.02 takes effect
@@ -27,8 +27,9 @@
 
 use dp_link::{FromAdapter, Led, Leds, NvRecord, Regs, SlaveState, Status, ToAdapter};
 use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
-use drive_link::{fieldbus, LinkedDrive, ModbusMaster};
+use drive_link::{LinkedDrive, ModbusMaster};
 use embedded_hal_nb::serial::{Read, Write};
+use profidrive::fieldbus_group as fieldbus;
 use profidrive::ppo::Ppo;
 use profidrive::ProfidriveApp;
 

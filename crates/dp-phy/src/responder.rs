@@ -30,8 +30,9 @@
 //! Rd_Outp, Set_Slave_Add) are "no resource" (RR), which changes nothing and is not stored as a
 //! repetition's answer, so the master's retry gets the new answer; Set_Prm, Chk_Cfg and
 //! Global_Control are acknowledged and handed over in order. A request with FCV set from the
-//! station answered last, carrying the same FCB, is a repetition: it gets the stored answer
-//! and reaches the firmware no more. Each new Data_Exchange hands its outputs over exactly once.
+//! station answered last, carrying the same FCB, for the same service (DSAP and SSAP), is a
+//! repetition: it gets the stored answer and reaches the firmware no more (`dp_slave`'s frame
+//! count says why the service counts). Each new Data_Exchange hands its outputs over exactly once.
 //!
 //! HDL style: the registers are [`ResponderQ`], [`next`] is the pure next-state function for
 //! one input event, and [`Responder`] commits it. The decision is ready [`DECISION_CLOCKS`]
@@ -82,6 +83,7 @@ impl Buffer {
 struct Last {
     requester: u8,
     fcb: bool,
+    service: (Option<Sap>, Option<Sap>),
     len: u8,
     telegram: [u8; MAX_TELEGRAM_LEN],
 }
@@ -281,7 +283,10 @@ fn telegram(d: &mut ResponderQ, out: &mut Output, now: Tick, bytes: &[u8], clock
     }
     if answers && fcv {
         if let Some(last) = d.last {
-            if last.requester == request.sa && last.fcb == fcb {
+            if last.requester == request.sa
+                && last.fcb == fcb
+                && last.service == (request.dsap, request.ssap)
+            {
                 out.response_len = usize::from(last.len);
                 out.telegram = last.telegram;
                 return;
@@ -440,6 +445,7 @@ fn answer_with(
     d.last = (!no_resource).then_some(Last {
         requester: request.sa,
         fcb,
+        service: (request.dsap, request.ssap),
         len: out.response_len as u8,
         telegram: out.telegram,
     });

@@ -7,7 +7,12 @@
 //!                                               +---- watchdog expiry, unlock -+
 //! ```
 //! Frame count: a request with FCV=1 from the station we last answered, carrying the FCB of
-//! that request, is a repetition; it gets the stored response and is not executed again.
+//! that request and addressed to the same service (DSAP and SSAP), is a repetition; it gets
+//! the stored response and is not executed again. A request for another service cannot repeat
+//! the one answered, so it is executed: a master that comes back to a station it had given up
+//! on without resetting the FCB (EN 50170 asks FCV=0, FCB=1 then; profirust 0.6 keeps the old
+//! FCB and asks for the diagnosis) gets the diagnosis, not the stored Data_Exchange answer for
+//! ever.
 //! Master lock: after Set_Prm with Lock_Req, Set_Prm, Chk_Cfg, Global_Control and
 //! Data_Exchange of other masters change nothing, and their diagnosis shows Master_Lock.
 
@@ -68,6 +73,7 @@ enum Stored {
 struct LastExchange {
     requester: u8,
     fcb: bool,
+    service: (Option<Sap>, Option<Sap>),
     response: Stored,
 }
 
@@ -333,7 +339,10 @@ impl<A: Application> Slave<A> {
         }
         if answers && fcv && repetitions {
             if let Some(last) = self.last {
-                if last.requester == request.sa && last.fcb == fcb {
+                if last.requester == request.sa
+                    && last.fcb == fcb
+                    && last.service == (request.dsap, request.ssap)
+                {
                     return Some(self.stored_response(request, last.response));
                 }
             }
@@ -364,6 +373,7 @@ impl<A: Application> Slave<A> {
         self.last = Some(LastExchange {
             requester: request.sa,
             fcb,
+            service: (request.dsap, request.ssap),
             response: stored,
         });
         Some(self.stored_response(request, stored))
@@ -1022,6 +1032,48 @@ mod tests {
         send(&mut s, 4, dx(true, true, &[3; 12]));
         assert_eq!(s.app().output_count, 3);
         assert_eq!(s.app().outputs.as_slice(), [3; 12]);
+    }
+
+    /// Issue 16: profirust 0.6 gives up on a station after a lost answer and its lost retry,
+    /// then asks for its diagnosis with the FCB it had (FCV=1). That cannot be a repetition of
+    /// the Data_Exchange answered last: it gets the diagnosis, so the master can go on.
+    #[test]
+    fn the_same_fcb_for_another_service_is_a_new_request() {
+        let mut s = slave();
+        into_data_exchange(&mut s);
+        let dx = DataRepr {
+            ssap: None,
+            fc: FrameControl::Request {
+                fcb: false,
+                fcv: true,
+                function: F::SrdHigh,
+            },
+            payload: &[7; 12],
+            ..REQ_TEMPL
+        };
+        let answered = send(&mut s, 1, dx);
+        assert!(matches!(answered, Some(Owned::Data(S::DataLow, _))));
+        let diag = DataRepr {
+            fc: FrameControl::Request {
+                fcb: false,
+                fcv: true,
+                function: F::SrdLow,
+            },
+            ..service(Sap::SLAVE_DIAG, &[])
+        };
+        let Some(Owned::Data(_, diagnosis)) = send(&mut s, 2, diag) else {
+            panic!("no diagnosis");
+        };
+        assert!(
+            diagnosis.len() >= 6,
+            "the diagnosis, not the stored outputs' answer"
+        );
+        assert_eq!(diagnosis[3], MASTER, "Diag.Master_Add");
+        // Its own repetition still gets the stored diagnosis.
+        assert_eq!(
+            send(&mut s, 3, diag),
+            Some(Owned::Data(S::DataLow, diagnosis))
+        );
     }
 
     #[test]

@@ -10,8 +10,9 @@
 //!
 //! [`LinkedDrive`] is the adapter's drive: `profidrive::Drive` over the master without ever
 //! waiting. It runs its own PZD cycle (one 17h read/write transaction per cycle, back to
-//! back), so a Data_Exchange only copies process images; parameter requests are queued
-//! between cycles and answered on a later service (`Drive::take_deferred`).
+//! back), so a Data_Exchange only copies process images; parameter transactions are submitted
+//! (`Drive::submit`), run between cycles and answered on a later poll, as are the transactions
+//! of the drive's fieldbus group 51 (`profidrive::fieldbus_group`).
 //! `BlockingDrive` (feature `testing`) is an immediate drive over the same master, for host
 //! tests that may wait for each answer; the product never waits.
 
@@ -20,11 +21,9 @@
 
 #[cfg(any(test, feature = "testing"))]
 mod blocking;
-pub mod fieldbus;
 mod linked;
 #[cfg(any(test, feature = "testing"))]
 pub use blocking::BlockingDrive;
-pub use fieldbus::FieldbusGroup;
 pub use linked::{LinkFigures, LinkedDrive, KEEPALIVE_US, LED_ACTIVITY_US, REWRITE_US};
 
 use embedded_hal_nb::serial::{Error as _, ErrorKind as UartError, Read, Write};

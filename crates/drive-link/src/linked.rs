@@ -19,16 +19,17 @@
 //!   [`KEEPALIVE_US`], so a lost drive shows before the master asks, and the drive's own
 //!   communication alarm stays quiet.
 //! - Link errors (no answer, CRC, noise) hold until the next transaction succeeds.
-//! - The drive's fieldbus group 51 ([`FieldbusGroup`]) gets its transactions between the
+//! - The drive's fieldbus group 51 (`profidrive`'s [`FieldbusGroup`]) gets its transactions between the
 //!   others; during data exchange at most one between two cycles, so a PZD cycle is never
 //!   delayed by more than one short transaction.
 
-use crate::{FieldbusGroup, PZD_IN_MAP, PZD_OUT_MAP};
 use crate::{ModbusMaster, Op, Outcome, MAX_PZD_WORDS, STATUS_WORD_REGISTER};
+use crate::{PZD_IN_MAP, PZD_OUT_MAP};
 use embedded_hal_nb::serial::{Read, Write};
 use heapless09::{Deque, Vec};
 use profidrive::codes::FunctionCode;
 use profidrive::drive::{Drive, DriveError, Submitted, Ticket, Transaction};
+use profidrive::fieldbus_group::FieldbusGroup;
 
 /// The status-word poll period while there is no PZD configuration.
 pub const KEEPALIVE_US: u64 = 100_000;
@@ -55,7 +56,7 @@ enum Job {
     },
     KeepAlive,
     /// A transaction of the fieldbus group.
-    Group(Op),
+    Group(Transaction),
 }
 
 /// Counters for reports.
@@ -231,9 +232,9 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             }
         }
         if self.words == 0 || self.cycle_ran {
-            if let Some(op) = self.group.next_op(now_us) {
+            if let Some(transaction) = self.group.next_transaction(now_us) {
                 self.cycle_ran = false;
-                return Some(Job::Group(op));
+                return Some(Job::Group(transaction));
             }
         }
         if self.words > 0 {
@@ -268,7 +269,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             },
             Job::Cycle { words, write: None } => Op::ReadInputs { words: words as u8 },
             Job::KeepAlive => Op::Read(STATUS_WORD_REGISTER),
-            Job::Group(op) => op,
+            Job::Group(transaction) => op_of(transaction),
         }
     }
 
@@ -349,8 +350,18 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                 }
             }
             Job::KeepAlive => {}
-            Job::Group(op) => self.group.finish(op, result),
+            Job::Group(transaction) => self
+                .group
+                .finish(transaction, value(op_of(transaction), result)),
         }
+    }
+}
+
+/// The Modbus transaction of a parameter transaction: the function code is the register.
+fn op_of(transaction: Transaction) -> Op {
+    match transaction {
+        Transaction::Read(code) => Op::Read(code.0),
+        Transaction::Write(code, value) => Op::Write(code.0, value),
     }
 }
 
@@ -367,10 +378,7 @@ impl<U: Read<u8> + Write<u8>> Drive for LinkedDrive<U> {
     fn submit(&mut self, transaction: Transaction) -> Submitted {
         // Only parameter channels submit, and their writes persist; the PZD cycle's run-time
         // writes go through the out block.
-        let op = match transaction {
-            Transaction::Read(code) => Op::Read(code.0),
-            Transaction::Write(code, value) => Op::Write(code.0, value),
-        };
+        let op = op_of(transaction);
         let ticket = Ticket(self.next_ticket);
         if self.requests.push_back((ticket, op)).is_err() {
             // More transactions at once than the parameter channels make: refuse, never wait.

@@ -1,6 +1,6 @@
 //! The simulated drive (crate `drive-sim`): the model, its Modbus RTU slave side and the line
 //! to it on simulated time ([`line`]). The register map is the drive link's
-//! (`drive_link::{CONTROL_WORD_REGISTER, PZD_*}`, `drive_link::fieldbus`) and the named
+//! (`drive_link::{CONTROL_WORD_REGISTER, PZD_*}`, `profidrive::fieldbus_group`) and the named
 //! function codes are the application's (`profidrive::codes::named`): both sides read one
 //! definition.
 //!
@@ -30,7 +30,7 @@
 //! | 0x2301..0x2309 | PZD2..PZD10 in mapping: the code each reads (0: none), volatile |
 //! | 0x2400.. | PZD in block: status word, then the mapped values (read) |
 //! | 0x2500.. | PZD out block: control word, then the mapped values (write, not persisted) |
-//! | 0x5101..0x5121, 0x5127 | fieldbus group 51.01-51.21 and 51.27 (seed 004, table 5; `drive_link::fieldbus`) |
+//! | 0x5101..0x5121, 0x5127 | fieldbus group 51.01-51.21 and 51.27 (seed 004, table 5; `profidrive::fieldbus_group`) |
 //!
 //! The fieldbus group is seed 004's: module type, node address (default 3), baud rate (kbit/s,
 //! default 1500) and PPO type are written by the module and read-only at the panel
@@ -40,9 +40,9 @@
 //! Functions: 03h read holding registers, 06h write single register, 17h read/write multiple
 //! registers (the writes first, as the Modbus specification orders it).
 
-use drive_link::fieldbus::{self, index as fb, index_of};
 use profidrive::codes::{CodeKind, FunctionCode};
 use profidrive::drive::{DriveError, FaultRecord, ImmediateDrive};
+use profidrive::fieldbus_group::{self as fieldbus, index as fb};
 use profidrive::words::{control, rose, status};
 
 pub mod line;
@@ -317,7 +317,7 @@ impl DriveSim {
         if let Some(slot) = map_slot(register, PZD_IN_MAP) {
             return Ok(self.pzd_in_map[slot]);
         }
-        if let Some(i) = index_of(register) {
+        if let Some(i) = fieldbus::index_of(FunctionCode(register)) {
             return Ok(self.fieldbus[usize::from(i)]);
         }
         if register == PZD_IN_BLOCK {
@@ -363,7 +363,7 @@ impl DriveSim {
             self.pzd_in_map[slot] = mapped_code(value)?;
             return Ok(());
         }
-        if let Some(i) = index_of(register) {
+        if let Some(i) = fieldbus::index_of(FunctionCode(register)) {
             if !fieldbus_value_valid(i, value) {
                 return Err(DriveError::InvalidData);
             }
@@ -437,13 +437,13 @@ impl DriveSim {
     /// the values the module reports (51.01, 51.03, 51.04) and status values are read-only.
     pub fn set_at_panel(&mut self, register: u16, value: u16) -> Result<(), DriveError> {
         let read_only = matches!(
-            index_of(register),
+            fieldbus::index_of(FunctionCode(register)),
             Some(fb::MODULE_TYPE | fb::BAUD_RATE | fb::PPO_TYPE)
         );
         if read_only {
             return Err(DriveError::AccessRestricted);
         }
-        if index_of(register).is_none() && !is_parameter(register) {
+        if fieldbus::index_of(FunctionCode(register)).is_none() && !is_parameter(register) {
             return Err(match FunctionCode(register).kind() {
                 Some(_) => DriveError::AccessRestricted,
                 None => DriveError::IllegalAddress,
@@ -584,7 +584,8 @@ pub fn request_len(prefix: &[u8]) -> Option<usize> {
 /// Writes over Modbus go to non-volatile memory for the application parameters and the
 /// fieldbus group only.
 fn is_parameter(register: u16) -> bool {
-    FunctionCode(register).kind() == Some(CodeKind::Application) || index_of(register).is_some()
+    FunctionCode(register).kind() == Some(CodeKind::Application)
+        || fieldbus::index_of(FunctionCode(register)).is_some()
 }
 
 impl DriveSim {
@@ -736,7 +737,7 @@ mod tests {
     fn the_fieldbus_group_of_seed_004_table_5() {
         let mut d = DriveSim::default();
         // Defaults of table 5: address 3, 1500 kbit/s, PPO1, DP-V0, DONE.
-        let read = |d: &DriveSim, i| d.read_register(fieldbus::register(i));
+        let read = |d: &DriveSim, i| d.read_register(fieldbus::code(i).0);
         assert_eq!(read(&d, fb::NODE_ADDRESS), Ok(3));
         assert_eq!(read(&d, fb::BAUD_RATE), Ok(1500));
         assert_eq!(read(&d, fb::PPO_TYPE), Ok(1));
@@ -747,20 +748,17 @@ mod tests {
         // At the panel, what the module reports is read-only; the rest has table 5's ranges.
         for i in [fb::MODULE_TYPE, fb::BAUD_RATE, fb::PPO_TYPE] {
             assert_eq!(
-                d.set_at_panel(fieldbus::register(i), 2),
+                d.set_at_panel(fieldbus::code(i).0, 2),
                 Err(DriveError::AccessRestricted)
             );
         }
+        assert_eq!(d.set_at_panel(fieldbus::code(fb::PZD3_OUT).0, 1202), Ok(()));
         assert_eq!(
-            d.set_at_panel(fieldbus::register(fb::PZD3_OUT), 1202),
-            Ok(())
-        );
-        assert_eq!(
-            d.set_at_panel(fieldbus::register(fb::PZD3_OUT), 32768),
+            d.set_at_panel(fieldbus::code(fb::PZD3_OUT).0, 32768),
             Err(DriveError::InvalidData)
         );
         assert_eq!(
-            d.set_at_panel(fieldbus::register(fb::NODE_ADDRESS), 127),
+            d.set_at_panel(fieldbus::code(fb::NODE_ADDRESS).0, 127),
             Err(DriveError::InvalidData)
         );
         assert_eq!(

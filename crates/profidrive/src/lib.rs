@@ -10,6 +10,8 @@
 //! - [`words`]: the vendor control and status words.
 //! - [`profile`]: the PROFIdrive state machine and its translation to the vendor words.
 //! - [`drive`]: the drive as the application sees it, and the error and fault codes.
+//! - [`fieldbus_group`]: seed 004's group 51 in the drive, what the adapter shows there and
+//!   takes from it.
 //! - [`app`]: [`ProfidriveApp`], dp-slave's `Application`.
 //! - [`gsd`]: the device's GSD file.
 //!
@@ -21,6 +23,7 @@ pub mod app;
 pub mod codes;
 pub mod drive;
 pub mod faults;
+pub mod fieldbus_group;
 pub mod gsd;
 pub mod link_diag;
 pub mod pd_params;

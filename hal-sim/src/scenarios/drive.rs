@@ -11,11 +11,11 @@ use crate::cosim::{CoSim, MasterSetup, Program};
 use crate::firmware::Firmware;
 use dp_consts::Baud;
 use dp_link::Led;
-use drive_link::fieldbus::{self, index as fb};
 use drive_link::LED_ACTIVITY_US;
 use drive_sim::{DriveSim, LinkFault, ACCEL_TIME, DECEL_TIME, OUTPUT_CURRENT, SET_FREQUENCY};
 use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
 use profidrive::codes::FunctionCode;
+use profidrive::fieldbus_group::{self as fieldbus, index as fb};
 use profidrive::pd_params::{Frame, RequestLabel, ResponseLabel};
 use profidrive::pkw::{ReplyId, Request, Task};
 use profidrive::ppo::Ppo;
@@ -497,7 +497,7 @@ pub fn fieldbus_group<F: Firmware>(
     c.check("PPO2, PROFIdrive profile: data exchange", ok);
     let mut out = vec![0, 0, 0, 0, pd::READY, 0x2000, 0, 0, 0, 0];
     put(sim, &out);
-    let group = |d: &DriveSim, i: u8| d.read_register(fieldbus::register(i)).unwrap_or(u16::MAX);
+    let group = |d: &DriveSim, i: u8| d.read_register(fieldbus::code(i).0).unwrap_or(u16::MAX);
     let shown = wait(sim, 100_000, |_, d| {
         [1, 2, 3, 4, 21].map(|i| group(d, i)) == [fieldbus::MODULE_TYPE_PROFIBUS_DP, 8, 1500, 2, 0]
     })?;
@@ -511,7 +511,7 @@ pub fn fieldbus_group<F: Firmware>(
     );
     let refused = sim
         .drive_now()
-        .set_at_panel(fieldbus::register(fb::PPO_TYPE), 5);
+        .set_at_panel(fieldbus::code(fb::PPO_TYPE).0, 5);
     c.check(
         "51.04 is read-only at the drive's panel",
         refused == Err(profidrive::drive::DriveError::AccessRestricted),
@@ -521,10 +521,10 @@ pub fn fieldbus_group<F: Firmware>(
     let accel_before = sim.drive_now().read_register(ACCEL_TIME);
     let panel = sim
         .drive_now()
-        .set_at_panel(fieldbus::register(fb::PZD3_OUT), 113)
+        .set_at_panel(fieldbus::code(fb::PZD3_OUT).0, 113)
         .and_then(|()| {
             sim.drive_now()
-                .set_at_panel(fieldbus::register(fb::PZD3_OUT + 1), 2104)
+                .set_at_panel(fieldbus::code(fb::PZD3_OUT + 1).0, 2104)
         });
     c.check("panel: 51.05 = 113, 51.06 = 2104", panel.is_ok());
     out[6] = 30;
@@ -537,7 +537,7 @@ pub fn fieldbus_group<F: Firmware>(
     let t0 = sim.now_us();
     let _ = sim
         .drive_now()
-        .set_at_panel(fieldbus::register(fb::PAR_REFRESH), fieldbus::REFRESH);
+        .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
     let refreshed = wait(sim, 1_000_000, |_, d| {
         d.read_register(ACCEL_TIME) == Ok(30) && group(d, fb::PAR_REFRESH) == fieldbus::DONE
     })?;
@@ -594,10 +594,10 @@ pub fn fieldbus_group<F: Firmware>(
     // The switch sets the address: a 51.02 from the panel does not move the adapter.
     let _ = sim
         .drive_now()
-        .set_at_panel(fieldbus::register(fb::NODE_ADDRESS), 20);
+        .set_at_panel(fieldbus::code(fb::NODE_ADDRESS).0, 20);
     let _ = sim
         .drive_now()
-        .set_at_panel(fieldbus::register(fb::PAR_REFRESH), fieldbus::REFRESH);
+        .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
     let kept = wait(sim, 1_000_000, |_, d| {
         group(d, fb::PAR_REFRESH) == fieldbus::DONE && group(d, fb::NODE_ADDRESS) == 8
     })?;
@@ -618,10 +618,10 @@ pub fn fieldbus_group<F: Firmware>(
     );
     let _ = sim
         .drive_now()
-        .set_at_panel(fieldbus::register(fb::NODE_ADDRESS), 30);
+        .set_at_panel(fieldbus::code(fb::NODE_ADDRESS).0, 30);
     let _ = sim
         .drive_now()
-        .set_at_panel(fieldbus::register(fb::PAR_REFRESH), fieldbus::REFRESH);
+        .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
     let t0 = sim.now_us();
     let moved = wait_drive(sim, 1_000_000, |d| {
         group(d, fb::PAR_REFRESH) == fieldbus::DONE

@@ -11,10 +11,14 @@
 //! | 21 | DP MODE | the panel; the adapter is DP-V0 only and writes 0 back |
 //! | 27 | FBA PAR REFRESH | the panel sets REFRESH (1); the adapter writes DONE (0) once the settings are in force |
 //!
-//! Parameter 51.yy is the drive's register 0x51YY, the index in decimal digits like seed 000's
-//! function codes (51.27 is 0x5127).
+//! Parameter 51.yy is the function code 51.yy ([`code`]): the index in decimal digits like
+//! seed 000's codes (51.27 is 0x5127), which is also the drive's register on its Modbus link.
 //!
-//! Contract of [`FieldbusGroup`] (run by `LinkedDrive`, one transaction at a time):
+//! This is the application's side of the group: what each index means, what the adapter shows
+//! and when it takes the drive's settings. It speaks in [`Transaction`]s; the drive link runs
+//! them between its process-data cycles.
+//!
+//! Contract of [`FieldbusGroup`] (one transaction at a time, each finished before the next):
 //! - At link-up it reads the settings (51.02, 51.05-51.21) once; [`FieldbusGroup::take_settings`]
 //!   hands them over. It writes nothing before that, so the adapter's defaults never overwrite
 //!   the drive's settings.
@@ -27,9 +31,9 @@
 //! - A drive without the group (it refuses 51.xx) is left alone: the adapter keeps its own
 //!   settings.
 
-use crate::{Op, Outcome};
+use crate::codes::FunctionCode;
+use crate::drive::{DriveError, Transaction};
 use dp_consts::Baud;
-use profidrive::drive::DriveError;
 
 /// Parameter indices of the group.
 pub mod index {
@@ -63,15 +67,18 @@ pub const REFRESH_POLL_US: u64 = 500_000;
 /// PZD3 .. PZD10: the mapped words the group holds.
 pub const MAPPED_WORDS: usize = 8;
 
-/// The drive's register of parameter 51.`index`.
-pub const fn register(index: u8) -> u16 {
-    0x5100 | (((index / 10) << 4) | (index % 10)) as u16
+/// The group's parameter group number.
+pub const GROUP: u8 = 0x51;
+
+/// The function code of parameter 51.`index` (also the drive's register).
+pub const fn code(index: u8) -> FunctionCode {
+    FunctionCode::new(GROUP, ((index / 10) << 4) | (index % 10))
 }
 
-/// The index of a group register, if `register` is one of the group's.
-pub const fn index_of(register: u16) -> Option<u8> {
-    let low = register as u8;
-    if register >> 8 != 0x51 || low >> 4 > 9 || low & 0x0F > 9 {
+/// The index of a group parameter, if `code` is one of the group's.
+pub const fn index_of(code: FunctionCode) -> Option<u8> {
+    let low = code.index_byte();
+    if code.group() != GROUP || low >> 4 > 9 || low & 0x0F > 9 {
         return None;
     }
     let index = (low >> 4) * 10 + (low & 0x0F);
@@ -164,7 +171,7 @@ impl FieldbusGroup {
     /// What the drive should hold in 51.`index` (the read-only ones, the address in force, a
     /// mapping written through PROFIdrive). 51.27 and indices outside the group are ignored.
     pub fn show(&mut self, index: u8, value: u16) {
-        if index_of(register(index)).is_some() && index != index::PAR_REFRESH {
+        if index_of(code(index)).is_some() && index != index::PAR_REFRESH {
             self.shown[usize::from(index)] = Some(value);
         }
     }
@@ -205,15 +212,15 @@ impl FieldbusGroup {
     }
 
     /// The next transaction the group needs at `now_us`, if any.
-    pub(crate) fn next_op(&mut self, now_us: u64) -> Option<Op> {
+    pub fn next_transaction(&mut self, now_us: u64) -> Option<Transaction> {
         match self.phase {
             Phase::Absent => None,
-            Phase::Loading { at, .. } => Some(Op::Read(register(SETTINGS[at]))),
+            Phase::Loading { at, .. } => Some(Transaction::Read(code(SETTINGS[at]))),
             // Nothing goes to the drive until the adapter has taken what was read.
             Phase::Running if self.loaded.is_some() => None,
             Phase::Running => {
                 if self.done_due {
-                    return Some(Op::Write(register(index::PAR_REFRESH), DONE));
+                    return Some(Transaction::Write(code(index::PAR_REFRESH), DONE));
                 }
                 let address_pending = self.requested_address.is_some();
                 let differs = (1..=LAST_INDEX).find(|i| {
@@ -221,11 +228,11 @@ impl FieldbusGroup {
                         && self.shown[usize::from(*i)].is_some_and(|v| self.held(*i) != Some(v))
                 });
                 if let Some(i) = differs {
-                    return self.shown[usize::from(i)].map(|v| Op::Write(register(i), v));
+                    return self.shown[usize::from(i)].map(|v| Transaction::Write(code(i), v));
                 }
                 if now_us >= self.next_poll_us {
                     self.next_poll_us = now_us + REFRESH_POLL_US;
-                    return Some(Op::Read(register(index::PAR_REFRESH)));
+                    return Some(Transaction::Read(code(index::PAR_REFRESH)));
                 }
                 None
             }
@@ -234,21 +241,20 @@ impl FieldbusGroup {
 
     /// The link failed (any transaction): the drive may restart, so what it holds is
     /// unknown; a load under way starts over.
-    pub(crate) fn link_lost(&mut self) {
+    pub fn link_lost(&mut self) {
         self.held = [None; LAST_INDEX as usize + 1];
         if let Phase::Loading { at, .. } = &mut self.phase {
             *at = 0;
         }
     }
 
-    /// How a transaction of the group ended.
-    pub(crate) fn finish(&mut self, op: Op, result: Result<Outcome, DriveError>) {
-        let (register, written) = match op {
-            Op::Read(r) => (r, None),
-            Op::Write(r, v) => (r, Some(v)),
-            Op::Exchange { .. } | Op::ReadInputs { .. } => return,
+    /// How a transaction of the group ended: the value read, or the value written.
+    pub fn finish(&mut self, transaction: Transaction, result: Result<u16, DriveError>) {
+        let (code, written) = match transaction {
+            Transaction::Read(c) => (c, None),
+            Transaction::Write(c, v) => (c, Some(v)),
         };
-        let Some(i) = index_of(register) else { return };
+        let Some(i) = index_of(code) else { return };
         match (result, written) {
             // The link has told `link_lost`.
             (Err(e), _) if e.is_link_fault() => {}
@@ -262,7 +268,7 @@ impl FieldbusGroup {
                 }
             }
             (Err(_), None) => {}
-            (Ok(Outcome::Value(v)), None) => {
+            (Ok(v), None) => {
                 self.held[usize::from(i)] = Some(v);
                 self.read(i, v);
             }
@@ -273,7 +279,6 @@ impl FieldbusGroup {
                     self.done_due = false;
                 }
             }
-            (Ok(_), None) => {}
         }
     }
 
@@ -334,35 +339,34 @@ mod tests {
     }
 
     #[test]
-    fn registers_are_the_index_in_decimal_digits() {
-        assert_eq!(register(1), 0x5101);
-        assert_eq!(register(27), 0x5127);
-        assert_eq!(register(20), 0x5120);
-        assert_eq!(index_of(0x5127), Some(27));
-        assert_eq!(index_of(0x5121), Some(21));
+    fn codes_are_the_index_in_decimal_digits() {
+        assert_eq!(code(1), FunctionCode(0x5101));
+        assert_eq!(code(27), FunctionCode(0x5127));
+        assert_eq!(code(20), FunctionCode(0x5120));
+        assert_eq!(index_of(FunctionCode(0x5127)), Some(27));
+        assert_eq!(index_of(FunctionCode(0x5121)), Some(21));
         // Seed 004's table leaves 22-26 out; 0x510A is not decimal.
-        assert_eq!(index_of(0x5122), None);
-        assert_eq!(index_of(0x510A), None);
-        assert_eq!(index_of(0xF027), None);
+        assert_eq!(index_of(FunctionCode(0x5122)), None);
+        assert_eq!(index_of(FunctionCode(0x510A)), None);
+        assert_eq!(index_of(FunctionCode(0xF027)), None);
         for i in 1..=LAST_INDEX {
-            if let Some(found) = index_of(register(i)) {
+            if let Some(found) = index_of(code(i)) {
                 assert_eq!(found, i);
             }
         }
     }
 
     /// Answers the group's transactions from `drive` (index -> value) until it is idle.
-    fn serve(group: &mut FieldbusGroup, drive: &mut [u16; 28], now_us: u64) -> Vec<Op> {
+    fn serve(group: &mut FieldbusGroup, drive: &mut [u16; 28], now_us: u64) -> Vec<Transaction> {
         let mut ops = Vec::new();
-        while let Some(op) = group.next_op(now_us) {
+        while let Some(op) = group.next_transaction(now_us) {
             ops.push(op);
             let result = match op {
-                Op::Read(r) => Ok(Outcome::Value(drive[usize::from(index_of(r).unwrap())])),
-                Op::Write(r, v) => {
-                    drive[usize::from(index_of(r).unwrap())] = v;
-                    Ok(Outcome::Written)
+                Transaction::Read(c) => Ok(drive[usize::from(index_of(c).unwrap())]),
+                Transaction::Write(c, v) => {
+                    drive[usize::from(index_of(c).unwrap())] = v;
+                    Ok(v)
                 }
-                Op::Exchange { .. } | Op::ReadInputs { .. } => unreachable!(),
             };
             group.finish(op, result);
             assert!(ops.len() < 100, "the group never settles: {ops:?}");
@@ -383,7 +387,7 @@ mod tests {
         // The load: 18 reads, no write before the settings were taken.
         let ops = serve(&mut group, &mut drive, 0);
         assert_eq!(ops.len(), SETTINGS.len());
-        assert!(ops.iter().all(|op| matches!(op, Op::Read(_))));
+        assert!(ops.iter().all(|op| matches!(op, Transaction::Read(_))));
         let settings = group.take_settings().expect("loaded");
         assert_eq!(
             (
@@ -433,7 +437,10 @@ mod tests {
         drive = [0u16; 28];
         group.show(index::PZD3_OUT, 113);
         let ops = serve(&mut group, &mut drive, 0);
-        assert!(ops.iter().all(|op| matches!(op, Op::Write(..))), "{ops:?}");
+        assert!(
+            ops.iter().all(|op| matches!(op, Transaction::Write(..))),
+            "{ops:?}"
+        );
         assert_eq!(
             (drive[1], drive[4], drive[5]),
             (MODULE_TYPE_PROFIBUS_DP, 2, 113)
@@ -444,10 +451,10 @@ mod tests {
     #[test]
     fn a_drive_without_the_group_is_left_alone_and_refused_values_are_not_resent() {
         let mut group = FieldbusGroup::default();
-        let op = group.next_op(0).unwrap();
+        let op = group.next_transaction(0).unwrap();
         group.finish(op, Err(DriveError::IllegalAddress));
         assert!(!group.present());
-        assert_eq!(group.next_op(10_000_000), None);
+        assert_eq!(group.next_transaction(10_000_000), None);
 
         let mut group = FieldbusGroup::default();
         let mut drive = [0u16; 28];
@@ -455,8 +462,8 @@ mod tests {
         group.take_settings().unwrap();
         serve(&mut group, &mut drive, 0);
         group.show(index::PZD3_OUT, 40000);
-        let op = group.next_op(0).unwrap();
-        assert_eq!(op, Op::Write(register(5), 40000));
+        let op = group.next_transaction(0).unwrap();
+        assert_eq!(op, Transaction::Write(code(5), 40000));
         group.finish(op, Err(DriveError::InvalidData));
         let rest = serve(&mut group, &mut drive, 0);
         assert!(!rest.contains(&op));

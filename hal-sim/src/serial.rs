@@ -238,6 +238,113 @@ mod tests {
         assert_eq!(answer, [0x10, 0x02, 0x08, 0x00, 0x0A, 0x16]);
     }
 
+    /// profirust's PHY straight into the serial adapter, on simulated time; `lose` says which
+    /// of the slave's answers (counted from 0) never reach the master.
+    struct LossyPhy<'a> {
+        adapter: &'a mut SerialAdapter<InProcess>,
+        now_us: u64,
+        received: Vec<u8>,
+        answers: usize,
+        lose: std::ops::Range<usize>,
+    }
+
+    impl profirust::phy::ProfibusPhy for LossyPhy<'_> {
+        fn poll_transmission(&mut self, _: profirust::time::Instant) -> bool {
+            false
+        }
+
+        fn transmit_data<F, R>(&mut self, _: profirust::time::Instant, f: F) -> R
+        where
+            F: FnOnce(&mut [u8]) -> (usize, R),
+        {
+            let mut buffer = [0u8; 256];
+            let (len, result) = f(&mut buffer);
+            if len > 0 {
+                let answer = self.adapter.on_bytes(self.now_us, &buffer[..len]).unwrap();
+                if !answer.is_empty() {
+                    if !self.lose.contains(&self.answers) {
+                        self.received.extend(answer);
+                    }
+                    self.answers += 1;
+                }
+            }
+            result
+        }
+
+        fn receive_data<F, R>(&mut self, _: profirust::time::Instant, f: F) -> R
+        where
+            F: FnOnce(&[u8]) -> (usize, R),
+        {
+            let (used, result) = f(&self.received);
+            self.received.drain(..used.min(self.received.len()));
+            result
+        }
+    }
+
+    /// Issue 16's one run in eight: the slave's answer to a Data_Exchange and the answer to its
+    /// retry are lost (a late reply over a pty, a noise burst on a line). profirust 0.6 then
+    /// gives up on the slave and asks for its diagnosis with the FCB it had. The slave must
+    /// answer the diagnosis, not replay the Data_Exchange answer for ever: the master
+    /// parameterises it again and data exchange resumes.
+    #[test]
+    fn a_master_that_gave_up_after_two_lost_answers_gets_the_slave_back() {
+        use profirust::dp::{DpMaster, Peripheral, PeripheralOptions};
+        use profirust::fdl::{FdlActiveStation, ParametersBuilder};
+        let mut adapter = SerialAdapter::new(InProcess::new(), 8, dp_consts::Baud::B187500).unwrap();
+        let ppo = profidrive::ppo::Ppo::Ppo3;
+        let user_prm: &'static [u8] = crate::cosim::echo_user_prm().encode().to_vec().leak();
+        let mut dp = DpMaster::new(vec![]);
+        let handle = dp.add(Peripheral::new(
+            8,
+            PeripheralOptions {
+                ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+                user_parameters: Some(user_prm),
+                config: Some(ppo.cfg()),
+                ..Default::default()
+            },
+            vec![0u8; ppo.io_bytes()],
+            vec![0u8; ppo.io_bytes()],
+        ));
+        let mut fdl = FdlActiveStation::new(
+            ParametersBuilder::new(2, profirust::Baudrate::B187500)
+                .highest_station_address(3)
+                .slot_bits(1000)
+                .watchdog_timeout(profirust::time::Duration::from_millis(300))
+                .build_verified(&dp),
+        );
+        fdl.set_online();
+        dp.enter_operate();
+        let mut phy = LossyPhy {
+            adapter: &mut adapter,
+            now_us: 0,
+            received: Vec::new(),
+            answers: 0,
+            lose: usize::MAX..usize::MAX,
+        };
+        let (mut left_at, mut back_at, mut running) = (None, None, false);
+        while phy.now_us < 3_000_000 && back_at.is_none() {
+            phy.now_us += 100;
+            let now = profirust::time::Instant::from_micros(phy.now_us as i64);
+            fdl.poll(now, &mut phy, &mut dp);
+            phy.adapter.poll(phy.now_us).unwrap();
+            let now_running = dp.get_mut(handle).is_running();
+            if now_running && !running && left_at.is_none() && phy.lose.start == usize::MAX {
+                // In data exchange: the next two answers are lost.
+                phy.lose = phy.answers + 10..phy.answers + 12;
+            }
+            if running && !now_running {
+                left_at = Some(phy.now_us);
+            }
+            if !running && now_running && left_at.is_some() {
+                back_at = Some(phy.now_us);
+            }
+            running = now_running;
+        }
+        let left_at = left_at.expect("the master gave up after two lost answers");
+        let back_at = back_at.expect("data exchange resumed");
+        assert!(back_at - left_at < 100_000, "back after {} us", back_at - left_at);
+    }
+
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig { cases: 64, ..Default::default() })]
 

@@ -290,7 +290,8 @@ mod tests {
     fn a_master_that_gave_up_after_two_lost_answers_gets_the_slave_back() {
         use profirust::dp::{DpMaster, Peripheral, PeripheralOptions};
         use profirust::fdl::{FdlActiveStation, ParametersBuilder};
-        let mut adapter = SerialAdapter::new(InProcess::new(), 8, dp_consts::Baud::B187500).unwrap();
+        let mut adapter =
+            SerialAdapter::new(InProcess::new(), 8, dp_consts::Baud::B187500).unwrap();
         let ppo = profidrive::ppo::Ppo::Ppo3;
         let user_prm: &'static [u8] = crate::cosim::echo_user_prm().encode().to_vec().leak();
         let mut dp = DpMaster::new(vec![]);
@@ -342,7 +343,11 @@ mod tests {
         }
         let left_at = left_at.expect("the master gave up after two lost answers");
         let back_at = back_at.expect("data exchange resumed");
-        assert!(back_at - left_at < 100_000, "back after {} us", back_at - left_at);
+        assert!(
+            back_at - left_at < 100_000,
+            "back after {} us",
+            back_at - left_at
+        );
     }
 
     proptest::proptest! {

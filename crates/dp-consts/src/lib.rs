@@ -341,3 +341,96 @@ mod tests {
         assert_eq!(Baud::B12000000.to_string(), "12M");
     }
 }
+
+/// DP-V1, the class-1 master's acyclic services (MSAC1) on SAP 51 (seed 004, "DP-V1 通讯",
+/// tables 15-17), and the DPV1_Status bytes of Set_Prm.
+pub mod dpv1 {
+    /// The slave's SAP for MSAC1 read and write, and the class-1 master's (MS1).
+    pub const SAP: u8 = 51;
+    /// Set_Prm bytes 7-9 when the slave runs DP-V1: DPV1_Status_1..3, before the user data.
+    pub const STATUS_LEN: usize = 3;
+    /// The longest data of one read or write (seed 004 and the GSD's C1_Max_Data_Len).
+    pub const MAX_DATA_LEN: usize = 240;
+    /// The MSAC1 header: function number, slot, index, length.
+    pub const HEADER_LEN: usize = 4;
+    /// A negative response's function number is the request's with this bit set (0xDE, 0xDF).
+    pub const ERROR_BIT: u8 = 0x80;
+    /// Error_Decode of a negative response: DP-V1 (seed 004, table 16: always 128).
+    pub const ERROR_DECODE_DPV1: u8 = 0x80;
+
+    crate::code_point! {
+        /// Function numbers (seed 004, table 15).
+        pub enum Function {
+            Idle = 0x48,
+            DataTransport = 0x51,
+            ResourceManager = 0x56,
+            Initiate = 0x57,
+            Abort = 0x58,
+            Alarm = 0x5C,
+            Read = 0x5E,
+            Write = 0x5F,
+            DataTransportError = 0xD1,
+            InitiateError = 0xD7,
+            AlarmError = 0xDC,
+            ReadError = 0xDE,
+            WriteError = 0xDF,
+        }
+    }
+
+    /// Error_Code_1 of a negative response: error class (high nibble) and code (seed 004,
+    /// table 17).
+    pub mod error {
+        /// Class 10, application: read error, write error, module failure, version
+        /// conflict, feature not supported.
+        pub const APPLICATION_READ: u8 = 0xA0;
+        pub const APPLICATION_WRITE: u8 = 0xA1;
+        pub const APPLICATION_NOT_SUPPORTED: u8 = 0xA9;
+        /// Class 11, access.
+        pub const INVALID_INDEX: u8 = 0xB0;
+        pub const WRITE_LENGTH: u8 = 0xB1;
+        pub const INVALID_SLOT: u8 = 0xB2;
+        pub const TYPE_CONFLICT: u8 = 0xB3;
+        pub const INVALID_AREA: u8 = 0xB4;
+        pub const STATE_CONFLICT: u8 = 0xB5;
+        pub const ACCESS_DENIED: u8 = 0xB6;
+        pub const INVALID_RANGE: u8 = 0xB7;
+        pub const INVALID_PARAMETER: u8 = 0xB8;
+        pub const INVALID_TYPE: u8 = 0xB9;
+        /// Class 12, resource.
+        pub const READ_CONSTRAIN_CONFLICT: u8 = 0xC0;
+        pub const WRITE_CONSTRAIN_CONFLICT: u8 = 0xC1;
+        pub const RESOURCE_BUSY: u8 = 0xC2;
+        pub const RESOURCE_UNAVAILABLE: u8 = 0xC3;
+    }
+
+    /// DPV1_Status_1 (Set_Prm byte 7).
+    pub mod status1 {
+        pub const DPV1_ENABLE: u8 = 0x80;
+        pub const FAIL_SAFE: u8 = 0x40;
+        pub const PUBLISHER_ENABLE: u8 = 0x20;
+        /// The watchdog counts in 1 ms instead of 10 ms.
+        pub const WD_BASE_1MS: u8 = 0x04;
+        /// Bits the slave must find 0.
+        pub const RESERVED: u8 = 0x1B;
+    }
+
+    /// DPV1_Status_2 (Set_Prm byte 8; seed 004: "MSB X X X X X X 0 X LSB").
+    pub mod status2 {
+        pub const CHK_CFG_MODE: u8 = 0x01;
+        pub const RESERVED: u8 = 0x02;
+        /// Enable_Update, Status, Manufacturer_Specific, Diagnostic, Process and
+        /// Pull_Plug alarms (bits 2-7): seed 004 supports none.
+        pub const ALARM_ENABLES: u8 = 0xFC;
+    }
+
+    /// DPV1_Status_3 (Set_Prm byte 9; seed 004: "MSB 0 0 0 X X X X X LSB").
+    pub mod status3 {
+        /// Alarm_Mode, bits 0-2: the master's alarm capacity (taken, no alarms are sent).
+        pub const ALARM_MODE: u8 = 0x07;
+        /// Prm_Structure (DP-V2): not supported.
+        pub const PRM_STRUCTURE: u8 = 0x08;
+        /// IsoM_Req (isochronous mode): not supported.
+        pub const ISOM_REQ: u8 = 0x10;
+        pub const RESERVED: u8 = 0xE0;
+    }
+}

@@ -12,6 +12,7 @@ mod app;
 pub mod cfg;
 #[cfg(feature = "harness")]
 pub mod harness;
+pub mod msac1;
 mod slave;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;

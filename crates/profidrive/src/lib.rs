@@ -7,6 +7,8 @@
 //! - [`codes`]: the vendor's function codes (F0.29 is 0xF029).
 //! - [`pkw`]: the vendor parameter channel.
 //! - [`pd_params`]: the PROFIdrive parameter channel and parameters (915 .. 972).
+//! - [`pd_access`]: the PROFIdrive parameter request and response over DP-V1 (seed 004, tables
+//!   18-21).
 //! - [`words`]: the vendor control and status words.
 //! - [`profile`]: the PROFIdrive state machine and its translation to the vendor words.
 //! - [`drive`]: the drive as the application sees it, and the error and fault codes.
@@ -26,6 +28,7 @@ pub mod faults;
 pub mod fieldbus_group;
 pub mod gsd;
 pub mod link_diag;
+pub mod pd_access;
 pub mod pd_params;
 pub mod pkw;
 pub mod ppo;

@@ -67,6 +67,13 @@ dp_consts::code_point! {
         TextArray = 15,
         OperatingState = 17,
         Other = 18,
+        /// Table 21 (DP-V1): 14h value not allowed, 15h response too long, 16h illegal
+        /// parameter address, 17h illegal format, 18h number of values inconsistent.
+        ValueNotAllowed = 0x14,
+        ResponseTooLong = 0x15,
+        IllegalAddress = 0x16,
+        IllegalFormat = 0x17,
+        ValueCountMismatch = 0x18,
         ProductId = 101,
         UnsupportedRequest = 102,
         CommunicationError = 103,
@@ -77,6 +84,8 @@ dp_consts::code_point! {
         NotMappableToPzd3 = 123,
         ControlBitTaken = 130,
         NoTorqueMode = 140,
+        /// Table 21: 90h, a request ID that is neither read nor change.
+        InvalidRequestId = 0x90,
     }
 }
 

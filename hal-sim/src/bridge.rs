@@ -300,13 +300,21 @@ impl<F: Firmware> Bridge<F> {
 
     /// Everything due at `now_ns`, in time order.
     pub fn poll(&mut self, now_ns: u64) -> io::Result<()> {
+        while self.poll_one(now_ns)? {}
+        Ok(())
+    }
+
+    /// Runs the one action due first at `now_ns`, if any; returns whether there was one. A
+    /// caller that also serves a port can answer it between two actions (a QEMU round trip
+    /// each) instead of after all of them.
+    pub fn poll_one(&mut self, now_ns: u64) -> io::Result<bool> {
         if self.realtime {
             self.floor_ns = self.floor_ns.max(now_ns);
         }
-        while let Some(t) = self.next_ns().filter(|t| *t <= now_ns) {
-            self.step_at(t)?;
+        match self.next_ns().filter(|t| *t <= now_ns) {
+            Some(t) => self.step_at(t).map(|()| true),
+            None => Ok(false),
         }
-        Ok(())
     }
 
     /// The action due at `t`.

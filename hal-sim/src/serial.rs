@@ -103,6 +103,11 @@ impl<F: Firmware> SerialAdapter<F> {
         self.bridge.poll(now_us * 1000)
     }
 
+    /// The first of them only; whether there was one (see [`Bridge::poll_one`]).
+    pub fn poll_one(&mut self, now_us: u64) -> io::Result<bool> {
+        self.bridge.poll_one(now_us * 1000)
+    }
+
     /// Bytes from the port at `now_us`; returns what to send back.
     pub fn on_bytes(&mut self, now_us: u64, bytes: &[u8]) -> io::Result<Vec<u8>> {
         // No poll first: the transceiver answers from its buffers at once, and the firmware's

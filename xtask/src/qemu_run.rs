@@ -388,19 +388,24 @@ fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
     let mut late_replies = 0u64;
     let mut last_print = Instant::now();
     let mut buf = [0u8; 512];
-    loop {
-        let now_us = start.elapsed().as_micros() as u64;
-        match port.read(&mut buf) {
-            Ok(n) if n > 0 => {
-                let read_at = Instant::now();
-                let answer = adapter.on_bytes(now_us, &buf[..n])?;
-                if !answer.is_empty() {
-                    port.write_all(&answer)?;
-                    if read_at.elapsed() > late_after {
-                        late_replies += 1;
-                    }
-                }
+    // Bytes from the port, answered at once (the transceiver answers from its buffers).
+    let mut serve = |adapter: &mut SerialAdapter<Qemu>,
+                     port: &mut Box<dyn SerialPort>,
+                     bytes: &[u8]|
+     -> Result<()> {
+        let read_at = Instant::now();
+        let answer = adapter.on_bytes(start.elapsed().as_micros() as u64, bytes)?;
+        if !answer.is_empty() {
+            port.write_all(&answer)?;
+            if read_at.elapsed() > late_after {
+                late_replies += 1;
             }
+        }
+        Ok(())
+    };
+    loop {
+        match port.read(&mut buf) {
+            Ok(n) if n > 0 => serve(&mut adapter, &mut port, &buf[..n])?,
             Ok(_) => {}
             Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
             // A signal (Ctrl-C, SIGTERM) interrupted the read: the stop flag says what next.
@@ -410,7 +415,16 @@ fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
             Err(_) if checker.as_ref().is_some_and(finishes_soon) => {}
             Err(e) => return Err(e).context("reading the port"),
         }
-        adapter.poll(start.elapsed().as_micros() as u64)?;
+        // The firmware's work one QEMU round trip at a time, with the port served in between:
+        // a request that arrives meanwhile is answered within one round trip, not after all
+        // of them (two answers later than the master's slot time make it give the slave up).
+        while adapter.poll_one(start.elapsed().as_micros() as u64)? {
+            let waiting = port.bytes_to_read().unwrap_or(0) as usize;
+            if waiting > 0 {
+                let n = port.read(&mut buf[..waiting.min(512)]).unwrap_or(0);
+                serve(&mut adapter, &mut port, &buf[..n])?;
+            }
+        }
         if last_print.elapsed() >= Duration::from_millis(500) {
             last_print = Instant::now();
             let now = start.elapsed().as_micros() as u64;

@@ -271,6 +271,35 @@ enum Slot<'a> {
     Octets(&'a [u8]),
 }
 
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum SlotKind {
+    Word,
+    Array,
+    Octets,
+}
+
+impl Slot<'_> {
+    fn kind(&self) -> SlotKind {
+        match self {
+            Slot::Word(_) => SlotKind::Word,
+            Slot::Array(_) => SlotKind::Array,
+            Slot::Octets(_) => SlotKind::Octets,
+        }
+    }
+}
+
+/// One element of a parameter as DP-V1 reads it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Element {
+    Word(u16),
+    /// `len` octets (919, 961, 965).
+    Octets {
+        bytes: [u8; 4],
+        len: u8,
+    },
+}
+
 /// Whether the master may write a parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Rights {
@@ -431,11 +460,25 @@ impl Parameters {
         let Some((row, at)) = row(request.pnu) else {
             return err(ErrorNumber::IllegalPnu);
         };
-        // The check looks at other parameters, so it runs before the slot is borrowed.
-        let value_check = (row.check)(self, at, request.index, request.value as u16);
-        let writable = row.rights == Rights::ReadWrite;
-        let slot = (row.slot)(self, at);
-        match (label, slot) {
+        let index = u16::from(request.index);
+        let new = request.value as u16;
+        let kind = (row.slot)(self, at).kind();
+        match (label, kind) {
+            (Rq::WriteWord, SlotKind::Word) => {
+                return match self.write_word(request.pnu, 0, new) {
+                    Ok(()) => request.reply(ResponseLabel::Word, u32::from(new)),
+                    Err(e) => err(e),
+                }
+            }
+            (Rq::WriteArrayWord, SlotKind::Array) => {
+                return match self.write_word(request.pnu, index, new) {
+                    Ok(()) => request.reply(ResponseLabel::ArrayWord, u32::from(new)),
+                    Err(e) => err(e),
+                }
+            }
+            _ => {}
+        }
+        match (label, (row.slot)(self, at)) {
             (Rq::Read, Slot::Word(value)) => request.reply(ResponseLabel::Word, u32::from(*value)),
             (Rq::Read, Slot::Octets(octets)) => {
                 let mut v = [0u8; 4];
@@ -458,47 +501,6 @@ impl Parameters {
             (Rq::ArrayCount, Slot::Array(values)) => {
                 request.reply(ResponseLabel::ArrayCount, values.len() as u32)
             }
-            (Rq::WriteWord, Slot::Word(value)) => {
-                if !writable {
-                    return err(ErrorNumber::ReadOnly);
-                }
-                let new = request.value as u16;
-                if let Err(e) = value_check {
-                    return err(e);
-                }
-                let old = *value;
-                if old != new {
-                    *value = new;
-                    self.flash_writes += 1;
-                }
-                if old == 0 && new == 1 {
-                    self.pending_action = match request.pnu {
-                        970 => Some(Action::FactoryReset),
-                        971 => Some(Action::SaveToFlash),
-                        972 => Some(Action::Restart),
-                        _ => self.pending_action,
-                    };
-                }
-                request.reply(ResponseLabel::Word, u32::from(new))
-            }
-            (Rq::WriteArrayWord, Slot::Array(values)) => {
-                let i = usize::from(request.index).wrapping_sub(1);
-                if i >= values.len() {
-                    return err(ErrorNumber::BadSubindex);
-                }
-                if !writable {
-                    return err(ErrorNumber::ReadOnly);
-                }
-                let new = request.value as u16;
-                if let Err(e) = value_check {
-                    return err(e);
-                }
-                if values[i] != new {
-                    values[i] = new;
-                    self.flash_writes += 1;
-                }
-                request.reply(ResponseLabel::ArrayWord, u32::from(new))
-            }
             (Rq::ReadElement | Rq::WriteElement | Rq::WriteDword | Rq::WriteArrayDword, _) => {
                 err(ErrorNumber::UnsupportedRequest)
             }
@@ -509,6 +511,89 @@ impl Parameters {
             (Rq::WriteWord, Slot::Octets(_)) => err(ErrorNumber::ReadOnly),
             _ => err(ErrorNumber::UnsupportedRequest),
         }
+    }
+
+    /// Writes one word of an adapter parameter (`subindex` 1.. of an array, ignored for a
+    /// word): the one implementation both parameter channels use. Rights, range and the
+    /// cross-checks of the row; the value is stored (and counts as a non-volatile write)
+    /// only when it changes; 970-972 note their action on a 0 -> 1 change.
+    pub fn write_word(&mut self, pnu: u16, subindex: u16, new: u16) -> Result<(), ErrorNumber> {
+        let (row, at) = row(pnu).ok_or(ErrorNumber::IllegalPnu)?;
+        // The check looks at other parameters, so it runs before the slot is borrowed.
+        let check = (row.check)(self, at, subindex as u8, new);
+        let writable = row.rights == Rights::ReadWrite;
+        let target = match (row.slot)(self, at) {
+            Slot::Word(value) => value,
+            Slot::Array(values) => values
+                .get_mut(usize::from(subindex).wrapping_sub(1))
+                .ok_or(ErrorNumber::BadSubindex)?,
+            Slot::Octets(_) => return Err(ErrorNumber::ReadOnly),
+        };
+        if !writable {
+            return Err(ErrorNumber::ReadOnly);
+        }
+        check?;
+        let old = *target;
+        if old != new {
+            *target = new;
+            self.flash_writes += 1;
+        }
+        if old == 0 && new == 1 {
+            self.pending_action = match pnu {
+                970 => Some(Action::FactoryReset),
+                971 => Some(Action::SaveToFlash),
+                972 => Some(Action::Restart),
+                _ => self.pending_action,
+            };
+        }
+        Ok(())
+    }
+
+    /// Reads one element of an adapter parameter for DP-V1: a word (subindex 0), an array's
+    /// element (subindex 1..), or a parameter's octets (subindex 0). `ppo_number` answers 929.
+    pub fn read_element(
+        &mut self,
+        pnu: u16,
+        subindex: u16,
+        ppo_number: u8,
+    ) -> Result<Element, ErrorNumber> {
+        if pnu == 929 {
+            return match subindex {
+                0 => Ok(Element::Word(u16::from(ppo_number))),
+                _ => Err(ErrorNumber::BadSubindex),
+            };
+        }
+        let (row, at) = row(pnu).ok_or(ErrorNumber::IllegalPnu)?;
+        match ((row.slot)(self, at), subindex) {
+            (Slot::Word(value), 0) => Ok(Element::Word(*value)),
+            (Slot::Octets(octets), 0) => {
+                let mut bytes = [0u8; 4];
+                bytes[..octets.len()].copy_from_slice(octets);
+                Ok(Element::Octets {
+                    bytes,
+                    len: octets.len() as u8,
+                })
+            }
+            (Slot::Array(values), i) => values
+                .get(usize::from(i).wrapping_sub(1))
+                .map(|v| Element::Word(*v))
+                .ok_or(ErrorNumber::BadSubindex),
+            _ => Err(ErrorNumber::BadSubindex),
+        }
+    }
+
+    /// An adapter parameter's shape, for DP-V1's description: array elements (0 for a word)
+    /// and whether the master may write it.
+    pub fn shape(&mut self, pnu: u16) -> Result<(usize, bool), ErrorNumber> {
+        if pnu == 929 {
+            return Ok((0, false));
+        }
+        let (row, at) = row(pnu).ok_or(ErrorNumber::IllegalPnu)?;
+        let writable = row.rights == Rights::ReadWrite;
+        Ok(match (row.slot)(self, at) {
+            Slot::Array(values) => (values.len(), writable),
+            _ => (0, writable),
+        })
     }
 
     /// The answer to a drive parameter request (planned by [`Parameters::plan`]) once the
@@ -522,7 +607,7 @@ impl Parameters {
 }
 
 /// The PROFIdrive error number for what the drive or its link reported.
-fn link_error(e: DriveError) -> ErrorNumber {
+pub(crate) fn link_error(e: DriveError) -> ErrorNumber {
     match e {
         DriveError::NoAnswer => ErrorNumber::Timeout,
         DriveError::BusNoise | DriveError::CrcError => ErrorNumber::CommunicationError,

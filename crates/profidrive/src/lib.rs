@@ -8,7 +8,7 @@
 //! - [`pkw`]: the vendor parameter channel.
 //! - [`pd_params`]: the PROFIdrive parameter channel and parameters (915 .. 972).
 //! - [`pd_access`]: the PROFIdrive parameter request and response over DP-V1 (seed 004, tables
-//!   18-21).
+//!   18-21); [`dpv1`]: the server that executes them.
 //! - [`words`]: the vendor control and status words.
 //! - [`profile`]: the PROFIdrive state machine and its translation to the vendor words.
 //! - [`drive`]: the drive as the application sees it, and the error and fault codes.
@@ -23,6 +23,7 @@
 
 pub mod app;
 pub mod codes;
+pub mod dpv1;
 pub mod drive;
 pub mod faults;
 pub mod fieldbus_group;

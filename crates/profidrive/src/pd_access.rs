@@ -298,6 +298,14 @@ impl<'a> Writer<'a> {
         Writer { out, len: 0 }
     }
 
+    /// Goes on writing a response of which `len` bytes are written.
+    pub fn resume(out: &'a mut [u8; MAX_LEN], len: usize) -> Writer<'a> {
+        Writer {
+            out,
+            len: len.min(MAX_LEN),
+        }
+    }
+
     /// The response header; the response ID is set later if a parameter fails.
     pub fn header(&mut self, reference: u8, id: u8, axis: u8, count: u8) {
         self.len = 0;

@@ -7,6 +7,7 @@
 //! between a request and its response.
 
 use crate::cfg::IoSizes;
+use crate::msac1::{Request, Response};
 use crate::Instant;
 
 /// Why the application must go to its fail-safe state.
@@ -63,4 +64,14 @@ pub trait Application {
 
     /// Stores a new station address from Set_Slave_Add (non-volatile).
     fn store_address(&mut self, address: u8, no_add_chg: bool);
+
+    /// A DP-V1 class-1 request (MSAC1 on SAP 51, DPV1_Enable in force): writes the response
+    /// PDU into `out` (room for [`crate::msac1::MAX_PDU_LEN`]) and returns its length. It must
+    /// not wait: what takes longer is answered later, on a read the master repeats (seed 004:
+    /// B5h, state conflict). Without DP-V1 services: "feature not supported".
+    fn msac1(&mut self, now: Instant, request: &Request, out: &mut [u8]) -> usize {
+        let _ = now;
+        let code = dp_consts::dpv1::error::APPLICATION_NOT_SUPPORTED;
+        Response::error(request.is_write(), code).emit(out)
+    }
 }

@@ -26,10 +26,7 @@ use fdl::{DataRepr, FrameControl, Repr, RequestFunction, ResponseStatus, Sap};
 /// The longest configuration (Chk_Cfg data) the slave stores.
 pub const MAX_CFG_LEN: usize = 64;
 
-/// DPV1_Status_1 (the first user parameter byte where DP-V1 status bytes are on): 1 ms base.
-const WD_BASE_1MS: u8 = 0x04;
-/// DP-V1 status bytes at the front of User_Prm_Data.
-const DPV1_STATUS_LEN: usize = 3;
+use dp_consts::dpv1::{status1, status2, status3, STATUS_LEN as DPV1_STATUS_LEN};
 /// The highest address Set_Slave_Add may give (126 is reserved for commissioning).
 const MAX_SETTABLE_ADDRESS: u8 = 125;
 
@@ -53,8 +50,18 @@ pub struct Config {
     /// An earlier Set_Slave_Add fixed the address (No_Add_Chg): refuse further changes.
     pub no_add_chg: bool,
     /// User_Prm_Data begins with the three DP-V1 status bytes (DPV1_Status_1 bit 2 selects the
-    /// 1 ms watchdog base); the application gets the bytes after them.
+    /// 1 ms watchdog base, bit 7 enables MSAC1); the application gets the bytes after them.
     pub dpv1_status_bytes: bool,
+}
+
+/// Why DPV1_Status_1..3 of a Set_Prm are refused (Prm_Fault): a reserved bit, or a feature
+/// the slave does not have (Publisher_Enable, the alarms, Prm_Structure, IsoM_Req; seed 004
+/// marks each "不支持").
+fn dpv1_status_valid(status: &[u8]) -> bool {
+    let [s1, s2, s3] = [status[0], status[1], status[2]];
+    s1 & (status1::RESERVED | status1::PUBLISHER_ENABLE) == 0
+        && s2 & (status2::RESERVED | status2::ALARM_ENABLES) == 0
+        && s3 & (status3::PRM_STRUCTURE | status3::ISOM_REQ | status3::RESERVED) == 0
 }
 
 /// A stored response, so that a repetition gets the same bytes.
@@ -95,6 +102,11 @@ pub struct Slave<A> {
     ident_number: u16,
     no_add_chg: bool,
     dpv1_status_bytes: bool,
+    /// DPV1_Enable of the last accepted Set_Prm: SAP 51 is served.
+    dpv1_enabled: bool,
+    /// The response to the last MSAC1 request, until a poll takes it.
+    msac1_len: Option<usize>,
+    msac1_buffer: [u8; crate::msac1::MAX_PDU_LEN],
     state: State,
     /// The master that parameterised us (Master_Add of the diagnosis).
     owner: Option<u8>,
@@ -130,6 +142,9 @@ impl<A: Application> Slave<A> {
             ident_number: config.ident_number,
             no_add_chg: config.no_add_chg,
             dpv1_status_bytes: config.dpv1_status_bytes,
+            dpv1_enabled: false,
+            msac1_len: None,
+            msac1_buffer: [0; crate::msac1::MAX_PDU_LEN],
             state: State::PowerOn,
             owner: None,
             locked: false,
@@ -157,6 +172,23 @@ impl<A: Application> Slave<A> {
 
     pub fn state(&self) -> State {
         self.state
+    }
+
+    /// Whether User_Prm_Data begins with DPV1_Status_1..3 from the next Set_Prm on (the
+    /// device's protocol mode: seed 004's 51.21 DP MODE, with the GSD that matches it).
+    pub fn set_dpv1_status_bytes(&mut self, on: bool) {
+        self.dpv1_status_bytes = on;
+    }
+
+    /// DPV1_Enable is in force: SAP 51 serves the class-1 master.
+    pub fn dpv1_enabled(&self) -> bool {
+        self.dpv1_enabled
+    }
+
+    /// The response to the last MSAC1 request, while no poll has taken it (a transceiver that
+    /// answers polls from a buffer copies it there).
+    pub fn msac1_response(&self) -> Option<&[u8]> {
+        self.msac1_len.map(|len| &self.msac1_buffer[..len])
     }
 
     /// The station address (it changes after a successful Set_Slave_Add).
@@ -429,8 +461,38 @@ impl<A: Application> Slave<A> {
             Some(Sap::RD_INP) => self.read_inputs(now),
             Some(Sap::RD_OUTP) => self.read_outputs(),
             Some(Sap::SET_SLAVE_ADD) => self.set_slave_add(payload),
+            Some(Sap::MSAC1) => self.msac1(now, request.sa, payload),
             Some(_) => Answer::NotActivated,
         }
+    }
+
+    /// MSAC1 (SAP 51) for the owner in Data_Exch with DPV1_Enable. A request is executed at
+    /// once and acknowledged with SC: a slave cannot answer one within TSDR (a VPC3+ hands it
+    /// to its MCU and answers the master's polls without data until the MCU has put the
+    /// response in place; an SC answers an SRD that has no data). A poll (an SRD to SAP 51
+    /// without data) gets the response once, or SC while there is none.
+    fn msac1(&mut self, now: Instant, requester: u8, pdu: &[u8]) -> Answer {
+        if !self.dpv1_enabled || self.state != State::DataExch || self.owner != Some(requester) {
+            return Answer::NotActivated;
+        }
+        if pdu.is_empty() {
+            return match self.msac1_len.take() {
+                Some(len) => {
+                    self.payload_buffer[..len].copy_from_slice(&self.msac1_buffer[..len]);
+                    Answer::Data(ResponseStatus::DataLow, len)
+                }
+                None => Answer::ShortAck,
+            };
+        }
+        let len = match crate::msac1::Request::parse(pdu) {
+            Ok(request) => self.app.msac1(now, &request, &mut self.msac1_buffer),
+            Err(e) => {
+                let write = pdu.first() == Some(&u8::from(dp_consts::dpv1::Function::Write));
+                crate::msac1::Response::error(write, e.error_code()).emit(&mut self.msac1_buffer)
+            }
+        };
+        self.msac1_len = Some(len.min(crate::msac1::MAX_PDU_LEN));
+        Answer::ShortAck
     }
 
     /// The station address changed outside the bus (an adapter's software addressing, such as
@@ -463,6 +525,7 @@ impl<A: Application> Slave<A> {
             self.app.fail_safe(now, reason);
         }
         self.state = State::WaitPrm;
+        self.msac1_len = None;
         self.freeze_active = false;
         self.sync_active = false;
         self.clear_by_command = false;
@@ -593,14 +656,22 @@ impl<A: Application> Slave<A> {
         let (factor1, factor2) = (u64::from(fixed[1]), u64::from(fixed[2]));
         let ident = u16::from_be_bytes([fixed[4], fixed[5]]);
         let watchdog_on = status & station_status::WD_ON != 0;
-        let (base_ms, app_prm) = if self.dpv1_status_bytes {
+        let (base_ms, app_prm, dpv1_enable) = if self.dpv1_status_bytes {
             match user.split_at_checked(DPV1_STATUS_LEN) {
-                Some((dpv1, rest)) if dpv1[0] & WD_BASE_1MS != 0 => (1, Some(rest)),
-                Some((_, rest)) => (u64::from(WATCHDOG_BASE_MS), Some(rest)),
-                None => (0, None),
+                Some((dpv1, _)) if !dpv1_status_valid(dpv1) => (0, None, false),
+                Some((dpv1, rest)) => (
+                    if dpv1[0] & status1::WD_BASE_1MS != 0 {
+                        1
+                    } else {
+                        u64::from(WATCHDOG_BASE_MS)
+                    },
+                    Some(rest),
+                    dpv1[0] & status1::DPV1_ENABLE != 0,
+                ),
+                None => (0, None, false),
             }
         } else {
-            (u64::from(WATCHDOG_BASE_MS), Some(user))
+            (u64::from(WATCHDOG_BASE_MS), Some(user), false)
         };
         let valid = ident == self.ident_number
             && !(watchdog_on && (factor1 == 0 || factor2 == 0))
@@ -611,6 +682,7 @@ impl<A: Application> Slave<A> {
             return Answer::ShortAck;
         }
         self.prm_fault = false;
+        self.dpv1_enabled = dpv1_enable;
         self.owner = Some(requester);
         if status & station_status::LOCK_REQ != 0 {
             self.locked = true;
@@ -1074,6 +1146,133 @@ mod tests {
             send(&mut s, 3, diag),
             Some(Owned::Data(S::DataLow, diagnosis))
         );
+    }
+
+    /// Set_Prm's first 7 bytes and DPV1_Status_1..3, then one user byte.
+    fn dpv1_prm(s1: u8, s2: u8, s3: u8) -> [u8; 11] {
+        let mut prm = [0u8; 11];
+        prm[..7].copy_from_slice(&SET_PRM[..7]);
+        prm[7..10].copy_from_slice(&[s1, s2, s3]);
+        prm
+    }
+
+    fn msac1(slave: &mut Slave<EchoApp>, now: u64, fcb: bool, pdu: &[u8]) -> Option<Owned> {
+        let request = DataRepr {
+            dsap: Some(Sap::MSAC1),
+            ssap: Some(Sap::MSAC1),
+            fc: FrameControl::Request {
+                fcb,
+                fcv: true,
+                function: F::SrdLow,
+            },
+            payload: pdu,
+            ..REQ_TEMPL
+        };
+        send(slave, now, request)
+    }
+
+    /// Seed 004's DPV1_Status bytes: DPV1_Enable opens SAP 51; Publisher_Enable, any alarm
+    /// enable, Prm_Structure, IsoM_Req and reserved bits are "not supported": Prm_Fault.
+    #[test]
+    fn seed_004_dpv1_status_bytes_of_set_prm() {
+        let refused = [
+            dpv1_prm(0x80 | status1::PUBLISHER_ENABLE, 0, 0),
+            dpv1_prm(0x81, 0, 0),
+            dpv1_prm(0x80, 0x02, 0),
+            dpv1_prm(0x80, 0x04, 0),
+            dpv1_prm(0x80, 0x80, 0),
+            dpv1_prm(0x80, 0, status3::PRM_STRUCTURE),
+            dpv1_prm(0x80, 0, status3::ISOM_REQ),
+            dpv1_prm(0x80, 0, 0x20),
+        ];
+        for prm in refused {
+            let mut s = slave_with(true);
+            send(&mut s, 0, service(Sap::SET_PRM, &prm));
+            assert!(s.prm_fault(), "{prm:02X?}");
+        }
+        // Chk_Cfg_Mode and Alarm_Mode are taken; Fail_Safe too; WD_Base_1ms shortens the
+        // watchdog to 10 x 10 x 1 ms.
+        let mut s = slave_with(true);
+        let prm = dpv1_prm(0x80 | 0x40 | 0x04, 0x01, 0x07);
+        send(&mut s, 0, service(Sap::SET_PRM, &prm));
+        assert!(!s.prm_fault());
+        assert!(s.dpv1_enabled());
+        assert_eq!(s.watchdog_micros(), Some(100_000));
+        assert_eq!(
+            s.app().user_prm.as_slice(),
+            [0],
+            "the user data after the status bytes"
+        );
+    }
+
+    /// SAP 51: refused without DPV1_Enable; a request is executed and acknowledged with SC,
+    /// the response comes on the master's next poll (an SRD without data), once, and its
+    /// repetition (the same FCB) gets it again; a poll with nothing to give gets SC.
+    #[test]
+    fn msac1_request_then_poll() {
+        let mut s = slave_with(true);
+        let read = [0x5E, 1, 47, 240];
+        // DP-V0 only: SAP 51 is not activated.
+        send(&mut s, 0, service(Sap::SET_PRM, &dpv1_prm(0, 0, 0)));
+        send(&mut s, 0, service(Sap::CHK_CFG, PPO1));
+        assert_eq!(
+            msac1(&mut s, 1, true, &read),
+            Some(Owned::Data(S::SapNotActivated, vec![]))
+        );
+        let mut s = slave_with(true);
+        send(&mut s, 0, service(Sap::SET_PRM, &dpv1_prm(0x80, 0, 0)));
+        send(&mut s, 0, service(Sap::CHK_CFG, PPO1));
+        assert_eq!(s.state(), State::DataExch);
+        let write = [0x5F, 1, 47, 3, 7, 8, 9];
+        assert_eq!(msac1(&mut s, 1, true, &write), Some(Owned::ShortAck));
+        assert_eq!(s.msac1_response(), Some(&[0x5F, 1, 47, 3][..]));
+        let answer = msac1(&mut s, 2, false, &[]);
+        assert_eq!(answer, Some(Owned::Data(S::DataLow, vec![0x5F, 1, 47, 3])));
+        assert_eq!(
+            msac1(&mut s, 3, false, &[]),
+            answer,
+            "a repetition gets it again"
+        );
+        assert_eq!(
+            msac1(&mut s, 4, true, &[]),
+            Some(Owned::ShortAck),
+            "nothing more"
+        );
+        msac1(&mut s, 5, false, &read);
+        assert_eq!(
+            msac1(&mut s, 6, true, &[]),
+            Some(Owned::Data(S::DataLow, vec![0x5E, 1, 47, 3, 7, 8, 9]))
+        );
+        // A malformed request gets its negative response the same way.
+        msac1(&mut s, 7, false, &[0x5F, 1, 47, 5, 1]);
+        assert_eq!(
+            msac1(&mut s, 8, true, &[]),
+            Some(Owned::Data(S::DataLow, vec![0xDF, 0x80, 0xB1, 0]))
+        );
+        // Data exchange went on untouched.
+        assert_eq!(s.state(), State::DataExch);
+        assert_eq!(s.app().output_count, 0);
+    }
+
+    proptest::proptest! {
+        /// Arbitrary bytes on SAP 51 never change the cyclic state: the state, the outputs
+        /// held and the inputs the next Data_Exchange answers with.
+        #[test]
+        fn arbitrary_bytes_on_sap_51_leave_the_cyclic_state_alone(
+            pdus in proptest::collection::vec(proptest::collection::vec(proptest::prelude::any::<u8>(), 0..250), 1..8)
+        ) {
+            let mut s = slave_with(true);
+            send(&mut s, 0, service(Sap::SET_PRM, &dpv1_prm(0x80, 0, 0)));
+            send(&mut s, 0, service(Sap::CHK_CFG, PPO1));
+            let before = data_exchange(&mut s, 1, &[5; 12]);
+            for (i, pdu) in pdus.iter().enumerate() {
+                let _ = msac1(&mut s, 2 + i as u64, i % 2 == 0, pdu);
+            }
+            proptest::prop_assert_eq!(s.state(), State::DataExch);
+            proptest::prop_assert_eq!(s.app().output_count, 1);
+            let after = data_exchange(&mut s, 100, &[5; 12]);
+            proptest::prop_assert_eq!(before, after);
+        }
     }
 
     #[test]

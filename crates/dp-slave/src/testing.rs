@@ -4,6 +4,7 @@
 
 use crate::app::{Application, FailSafeReason};
 use crate::cfg::{io_sizes, IoSizes};
+use crate::msac1::{Request, Response};
 use crate::Instant;
 
 /// Inputs are the bitwise complement of the last outputs; records fail-safe and storage calls.
@@ -29,6 +30,8 @@ pub struct EchoApp {
     pub diag_changed: bool,
     /// The last address stored by Set_Slave_Add, with No_Add_Chg.
     pub stored_address: Option<(u8, bool)>,
+    /// The data of the last MSAC1 write, which a read returns (an MSAC1 echo).
+    pub record: heapless::Vec<u8, 240>,
 }
 
 impl Application for EchoApp {
@@ -83,5 +86,28 @@ impl Application for EchoApp {
 
     fn store_address(&mut self, address: u8, no_add_chg: bool) {
         self.stored_address = Some((address, no_add_chg));
+    }
+
+    /// An echo record: a write stores its data, a read returns it (B5h, state conflict,
+    /// before any write).
+    fn msac1(&mut self, _now: Instant, request: &Request, out: &mut [u8]) -> usize {
+        let response = match *request {
+            Request::Write { at, data } => {
+                self.record.clear();
+                let _ = self.record.extend_from_slice(data);
+                Response::Write {
+                    at,
+                    length: data.len() as u8,
+                }
+            }
+            Request::Read { .. } if self.record.is_empty() => {
+                Response::error(false, dp_consts::dpv1::error::STATE_CONFLICT)
+            }
+            Request::Read { at, length } => Response::Read {
+                at,
+                data: &self.record[..self.record.len().min(usize::from(length))],
+            },
+        };
+        response.emit(out)
     }
 }

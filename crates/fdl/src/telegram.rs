@@ -56,6 +56,8 @@ impl Sap {
     pub const SET_PRM: Sap = Sap(dp_consts::sap::SET_PRM);
     pub const CHK_CFG: Sap = Sap(dp_consts::sap::CHK_CFG);
     pub const MASTER_MS0: Sap = Sap(dp_consts::sap::MASTER_MS0);
+    /// DP-V1's class-1 acyclic read and write (MSAC1), slave and master side alike.
+    pub const MSAC1: Sap = Sap(dp_consts::dpv1::SAP);
     /// The largest SAP number (6 bits).
     pub const MAX: u8 = 63;
 }

@@ -31,6 +31,7 @@ pub enum Write {
     Inputs(Vec<u8>),
     Diag { new: bool, bytes: Vec<u8> },
     Cfg(Vec<u8>),
+    Msac1 { request: u32, bytes: Vec<u8> },
     Status(Status),
 }
 
@@ -45,6 +46,10 @@ impl Write {
                 bytes: bytes.to_vec(),
             },
             FromAdapter::Cfg(b) => Write::Cfg(b.to_vec()),
+            FromAdapter::Msac1 { request, bytes } => Write::Msac1 {
+                request,
+                bytes: bytes.to_vec(),
+            },
             FromAdapter::Status(s) => Write::Status(s),
             FromAdapter::Ready | FromAdapter::Sim(_) => return None,
         })
@@ -56,6 +61,10 @@ impl Write {
             Write::Inputs(b) => FromAdapter::Inputs(b),
             Write::Diag { new, bytes } => FromAdapter::Diag { new: *new, bytes },
             Write::Cfg(b) => FromAdapter::Cfg(b),
+            Write::Msac1 { request, bytes } => FromAdapter::Msac1 {
+                request: *request,
+                bytes,
+            },
             Write::Status(s) => FromAdapter::Status(*s),
         }
     }

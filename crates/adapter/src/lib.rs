@@ -105,6 +105,10 @@ pub trait Background {
     fn requested_station(&mut self) -> Option<u16> {
         None
     }
+    /// Set_Prm carries DPV1_Status_1-3 (the drive's 51.21 DP MODE is DP-V1).
+    fn dpv1_mode(&self) -> bool {
+        false
+    }
 }
 
 /// A UART that counts what it sent (the simulated drive link's lockstep needs the count).
@@ -167,6 +171,10 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
         self.drive_mut().fieldbus_mut().take_requested_address()
     }
 
+    fn dpv1_mode(&self) -> bool {
+        self.dp_mode_dpv1()
+    }
+
     fn drive_activity(&self, now_us: u64) -> (bool, bool) {
         self.drive().activity(now_us)
     }
@@ -181,6 +189,17 @@ fn sync_fieldbus_group<U: Read<u8> + Write<u8>>(app: &mut DriveApp<U>) {
         // 915/916 index 3..10 (PZD1 and PZD2 are fixed).
         params.pzd_out[2..].copy_from_slice(&settings.pzd_out);
         params.pzd_in[2..].copy_from_slice(&settings.pzd_in);
+        // 51.21: 1 is DP-V1, anything else DP-V0; the group shows the mode in force.
+        let dpv1 = settings.dp_mode == fieldbus::DP_MODE_DPV1;
+        app.set_dp_mode_dpv1(dpv1);
+        let shown = if dpv1 {
+            fieldbus::DP_MODE_DPV1
+        } else {
+            fieldbus::DP_MODE_DPV0
+        };
+        app.drive_mut()
+            .fieldbus_mut()
+            .show(fieldbus::index::DP_MODE, shown);
     }
     let (out, inp) = (app.params().pzd_out, app.params().pzd_in);
     let ppo = app.ppo().map(|p| u16::from(p.number()));
@@ -304,6 +323,9 @@ impl<A: Application> Application for Recording<A> {
         });
         self.inner.store_address(address, no_add_chg)
     }
+    fn msac1(&mut self, now: Instant, request: &dp_slave::msac1::Request, out: &mut [u8]) -> usize {
+        self.inner.msac1(now, request, out)
+    }
 }
 
 /// What the adapter hands its caller while it handles an event, in order.
@@ -314,6 +336,11 @@ pub enum Out<'a> {
     /// The writes of the event's decision are all out; the drive application's cycle follows
     /// (a simulation marks the time here).
     DecisionWritten,
+}
+
+/// An MSAC1 request (SAP 51 with data; a poll has none).
+fn is_msac1_request(request: &fdl::Repr) -> bool {
+    matches!(request, fdl::Repr::Data(d) if d.dsap == Some(fdl::Sap::MSAC1) && !d.payload.is_empty())
 }
 
 /// The largest buffer the responder holds.
@@ -489,6 +516,15 @@ impl<A: Application + Background> Adapter<A> {
                             self.slave.app_mut().inner.rate(baud);
                         }
                         self.slave.process_fresh(now, &request);
+                        if is_msac1_request(&request) {
+                            // The response the master's next poll gets from the transceiver.
+                            if let Some(bytes) = self.slave.msac1_response() {
+                                out(Out::Write(FromAdapter::Msac1 {
+                                    request: seq,
+                                    bytes,
+                                }));
+                            }
+                        }
                     }
                     Err(_) => {
                         self.malformed_telegrams = self.malformed_telegrams.saturating_add(1);
@@ -587,6 +623,8 @@ impl<A: Application + Background> Adapter<A> {
     /// (the diagnosis, configuration and status follow in steps of their own).
     fn write_cycle(&mut self, out: &mut dyn FnMut(Out)) {
         let now = Instant::from_micros(self.now_us);
+        let dpv1 = self.slave.app().inner.dpv1_mode();
+        self.slave.set_dpv1_status_bytes(dpv1);
         if let Some(address) = self.slave.app_mut().inner.requested_station() {
             self.readdress(now, address);
         }
@@ -704,6 +742,7 @@ impl<A: Application + Background> Adapter<A> {
             min_tsdr_bits: slave.min_tsdr_bits(),
             inputs_len: io.inputs as u8,
             outputs_len: io.outputs as u8,
+            dpv1: slave.dpv1_enabled(),
         }
     }
 

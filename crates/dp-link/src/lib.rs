@@ -125,6 +125,8 @@ pub struct Regs {
     /// Bytes of the accepted configuration.
     pub inputs_len: u8,
     pub outputs_len: u8,
+    /// DPV1_Enable is in force: SAP 51 serves the owner in Data_Exch.
+    pub dpv1: bool,
 }
 
 /// MCU to transceiver.
@@ -147,6 +149,13 @@ pub enum FromAdapter<'a> {
     },
     /// The configuration Get_Cfg answers with.
     Cfg(#[serde(borrow)] &'a [u8]),
+    /// The response to the MSAC1 request handed over as event `request` (SAP 51): the
+    /// master's next poll gets it.
+    Msac1 {
+        request: u32,
+        #[serde(borrow)]
+        bytes: &'a [u8],
+    },
     /// LEDs, storage, the wake-up, and figures for observers.
     Status(Status),
     /// Simulation only.
@@ -429,6 +438,7 @@ mod tests {
                 min_tsdr_bits: 255,
                 inputs_len: 244,
                 outputs_len: 244,
+                dpv1: true,
             }),
             FromAdapter::Inputs(&buffer),
             FromAdapter::Diag {
@@ -436,6 +446,10 @@ mod tests {
                 bytes: &buffer,
             },
             FromAdapter::Cfg(&buffer),
+            FromAdapter::Msac1 {
+                request: u32::MAX,
+                bytes: &buffer[..244],
+            },
             FromAdapter::Status(status()),
             FromAdapter::Sim(sim::SimFromAdapter::Done {
                 decision_instructions: u32::MAX,

@@ -106,6 +106,10 @@ pub struct ResponderQ {
     /// decision are given again.
     pub decision: Option<u32>,
     pub watchdog_deadline: Option<Tick>,
+    /// MSAC1 (SAP 51): the event of the request whose response is awaited, and the response
+    /// once the MCU wrote it (the next poll takes it).
+    pub msac1_for: Option<u32>,
+    pub msac1: Option<Buffer>,
 }
 
 /// The registers at power-up: Wait_Prm at address 126 until the firmware writes its own.
@@ -122,6 +126,7 @@ pub const RESPONDER_RESET: ResponderQ = ResponderQ {
         min_tsdr_bits: dp_consts::MIN_TSDR_BITS,
         inputs_len: 0,
         outputs_len: 0,
+        dpv1: false,
     },
     inputs: Buffer::EMPTY,
     diag: Buffer::EMPTY,
@@ -133,6 +138,8 @@ pub const RESPONDER_RESET: ResponderQ = ResponderQ {
     // Nothing is answered but FDL_Status until the firmware's first registers arrive.
     decision: Some(1),
     watchdog_deadline: None,
+    msac1_for: None,
+    msac1: None,
 };
 
 /// One input event.
@@ -207,6 +214,8 @@ enum HandOver {
     Event,
     /// A decision: the answers that depend on it wait for it.
     Decision,
+    /// An MSAC1 request: the MCU writes its response, which the master's poll collects.
+    Acyclic,
 }
 
 /// The pure next-state function. `clocks_per_us`: the sample clock, for the watchdog.
@@ -255,6 +264,10 @@ fn write_buffer(d: &mut ResponderQ, now: Tick, write: &FromAdapter, clocks_per_u
             d.diag_high |= new;
         }
         FromAdapter::Cfg(bytes) => d.cfg = Buffer::from(bytes),
+        FromAdapter::Msac1 { request, bytes } if d.msac1_for == Some(request) => {
+            d.msac1_for = None;
+            d.msac1 = Some(Buffer::from(bytes));
+        }
         _ => {}
     }
 }
@@ -313,6 +326,9 @@ fn telegram(d: &mut ResponderQ, out: &mut Output, now: Tick, bytes: &[u8], clock
         out.outputs_only = hand_over == HandOver::Outputs;
         if hand_over == HandOver::Decision {
             d.decision = Some(d.sent);
+        }
+        if hand_over == HandOver::Acyclic {
+            d.msac1_for = Some(d.sent);
         }
     }
     if answers {
@@ -393,6 +409,20 @@ fn decide(d: &mut ResponderQ, request: &DataRepr, service: Option<Sap>) -> (Answ
         }
         Some(Sap::SET_SLAVE_ADD) if waiting => (RR, HandOver::No),
         Some(Sap::SET_SLAVE_ADD) => set_slave_add(d, payload),
+        Some(Sap::MSAC1) if waiting => (RR, HandOver::No),
+        Some(Sap::MSAC1) if !(d.regs.dpv1 && exchanging && owner) => (RS, HandOver::No),
+        // A poll: the response once the MCU wrote it, SC until then (`dp_slave`'s MSAC1).
+        Some(Sap::MSAC1) if payload.is_empty() => match d.msac1.take() {
+            Some(response) => (
+                Answer::Data(ResponseStatus::DataLow, response),
+                HandOver::No,
+            ),
+            None => (Answer::ShortAck, HandOver::No),
+        },
+        Some(Sap::MSAC1) => {
+            d.msac1 = None;
+            (Answer::ShortAck, HandOver::Acyclic)
+        }
         Some(_) => (RS, HandOver::No),
     }
 }

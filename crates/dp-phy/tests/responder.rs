@@ -33,6 +33,8 @@ const PPO3: &[u8] = &[0xF1];
 struct Plant {
     echo: EchoApp,
     inputs: Vec<u8>,
+    /// Set_Prm carries DPV1_Status_1-3.
+    dpv1: bool,
 }
 
 impl dp_slave::Application for Plant {
@@ -68,9 +70,16 @@ impl dp_slave::Application for Plant {
     fn store_address(&mut self, address: u8, no_add_chg: bool) {
         self.echo.store_address(address, no_add_chg)
     }
+    fn msac1(&mut self, now: Instant, request: &dp_slave::msac1::Request, out: &mut [u8]) -> usize {
+        self.echo.msac1(now, request, out)
+    }
 }
 
-impl adapter::Background for Plant {}
+impl adapter::Background for Plant {
+    fn dpv1_mode(&self) -> bool {
+        self.dpv1
+    }
+}
 
 fn app() -> Plant {
     Plant {
@@ -80,6 +89,7 @@ fn app() -> Plant {
             ..EchoApp::default()
         },
         inputs: (0x40..0x40 + 12).collect(),
+        dpv1: false,
     }
 }
 
@@ -104,16 +114,22 @@ enum ToAdapterOwned {
 
 impl Pair {
     fn new(switch: u8) -> Pair {
-        let adapter = Adapter::boot(switch, None, app());
+        Pair::with(switch, false)
+    }
+
+    /// `dpv1`: Set_Prm carries DPV1_Status_1-3 on both sides.
+    fn with(switch: u8, dpv1: bool) -> Pair {
+        let app = Plant { dpv1, ..app() };
+        let adapter = Adapter::boot(switch, None, app.clone());
         let a = adapter.addressing();
         let reference = Slave::new(
             Config {
                 address: a.address,
                 ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
                 no_add_chg: a.no_add_chg,
-                dpv1_status_bytes: false,
+                dpv1_status_bytes: dpv1,
             },
-            app(),
+            app,
         );
         let mut responder = Responder::new(CLOCK_HZ);
         let seq = responder.next_event();
@@ -732,4 +748,73 @@ fn answers_start_at_min_tsdr_at_every_rate() {
             );
         }
     }
+}
+
+/// An MSAC1 request (SAP 51 on both sides) from `sa`.
+fn msac1(sa: u8, fcb: bool, pdu: &[u8]) -> Vec<u8> {
+    let repr = Repr::Data(DataRepr {
+        da: 8,
+        sa,
+        dsap: Some(Sap::MSAC1),
+        ssap: Some(Sap::MSAC1),
+        fc: FrameControl::Request {
+            fcb,
+            fcv: true,
+            function: RequestFunction::SrdLow,
+        },
+        payload: pdu,
+    });
+    let mut bytes = vec![0; repr.buffer_len()];
+    repr.emit(&mut bytes).unwrap();
+    bytes
+}
+
+/// DP-V1: the responder acknowledges an MSAC1 request with SC and hands it over; the master's
+/// poll gets the response the firmware wrote, as `dp_slave` gives it. On a slow link the poll
+/// gets SC until the response is there, and a response to an older request is not given.
+#[test]
+fn msac1_requests_are_answered_on_the_poll_as_the_firmware_would() {
+    let mut p = Pair::with(8, true);
+    let mut m = Requests::new(MASTER);
+    let mut prm = set_prm_payload(0x88, dp_consts::ADAPTER_IDENT_NUMBER);
+    prm.extend([0x80, 0, 0]);
+    p.same("Set_Prm, DPV1_Enable", &m.next(8, Some(Sap::SET_PRM), &prm));
+    p.same("Chk_Cfg", &m.next(8, Some(Sap::CHK_CFG), PPO3));
+    p.same("Data_Exchange", &m.next(8, None, &[1, 2, 3, 4]));
+    let write = [0x5F, 1, 47, 2, 0xAB, 0xCD];
+    let read = [0x5E, 1, 47, 240];
+    assert_eq!(
+        p.same("write", &msac1(MASTER, true, &write)),
+        Some(vec![0xE5])
+    );
+    let answer = p.same("poll", &msac1(MASTER, false, &[])).unwrap();
+    assert!(
+        answer.windows(4).any(|w| w == [0x5F, 1, 47, 2]),
+        "{answer:02X?}"
+    );
+    p.same("poll, nothing left", &msac1(MASTER, true, &[]));
+    p.same("read", &msac1(MASTER, false, &read));
+    let data = p
+        .same("poll for the read", &msac1(MASTER, true, &[]))
+        .unwrap();
+    assert!(
+        data.windows(6).any(|w| w == [0x5E, 1, 47, 2, 0xAB, 0xCD]),
+        "{data:02X?}"
+    );
+    p.same("Data_Exchange goes on", &m.next(8, None, &[5, 6, 7, 8]));
+    // Another master's MSAC1 is not served (RS), as the firmware says.
+    p.same("another master", &msac1(OTHER_MASTER, true, &read));
+
+    // A slow link: the poll before the firmware's write gets SC, the one after it the data.
+    p.deliver = false;
+    let (_, ack) = p.both(&msac1(MASTER, false, &read));
+    assert_eq!(ack, Some(vec![0xE5]));
+    let (_, early) = p.both(&msac1(MASTER, true, &[]));
+    assert_eq!(early, Some(vec![0xE5]), "not there yet");
+    p.deliver_queue();
+    let (_, late) = p.both(&msac1(MASTER, false, &[]));
+    assert!(late
+        .unwrap()
+        .windows(6)
+        .any(|w| w == [0x5E, 1, 47, 2, 0xAB, 0xCD]));
 }

@@ -14,6 +14,7 @@
 //! The next outputs from the master end the fail-safe.
 
 use crate::codes::FunctionCode;
+use crate::dpv1::Dpv1Server;
 use crate::drive::{Drive, DriveError, PZD1_LINK_ERROR};
 use crate::faults::FaultBuffer;
 use crate::link_diag::LinkDiagnosis;
@@ -74,6 +75,11 @@ pub struct ProfidriveApp<D> {
     /// The process data's last exchange with the drive, until the parameter half of the
     /// service notes it ([`ProfidriveApp::service_pkw`]).
     exchanged: Option<Result<(), DriveError>>,
+    /// The PROFIdrive parameter server on DP-V1.
+    dpv1: Dpv1Server,
+    /// The drive's 51.21 DP MODE asks for DP-V1: Set_Prm carries DPV1_Status_1-3 before the
+    /// user data, and the user data has no reserved first byte (seed 004's DP-V1 Set_Prm).
+    dp_mode_dpv1: bool,
 }
 
 /// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
@@ -100,7 +106,24 @@ impl<D: Drive> ProfidriveApp<D> {
             params: Parameters::default(),
             faults: FaultBuffer::default(),
             exchanged: None,
+            dpv1: Dpv1Server::default(),
+            dp_mode_dpv1: false,
         }
+    }
+
+    /// Seed 004's 51.21 DP MODE: DP-V1 (true) or DP-V0. It selects the Set_Prm layout from the
+    /// next Set_Prm on (the master must use the GSD of that mode).
+    pub fn set_dp_mode_dpv1(&mut self, dpv1: bool) {
+        self.dp_mode_dpv1 = dpv1;
+    }
+
+    pub fn dp_mode_dpv1(&self) -> bool {
+        self.dp_mode_dpv1
+    }
+
+    /// The DP-V1 parameter server (its figures).
+    pub fn dpv1(&self) -> &Dpv1Server {
+        &self.dpv1
     }
 
     /// The PROFIdrive parameters.
@@ -202,6 +225,10 @@ impl<D: Drive> ProfidriveApp<D> {
     /// The parameter half of [`ProfidriveApp::service`], after [`ProfidriveApp::service_pzd`]:
     /// the parameter channel, and the drive link's state for the diagnosis.
     pub fn service_pkw(&mut self, now: Instant) {
+        if let Some(ppo) = self.ppo {
+            self.dpv1
+                .step(&mut self.params, &mut self.drive, ppo.number());
+        }
         let Some(result) = self.exchanged.take() else {
             return;
         };
@@ -314,7 +341,12 @@ impl<D: Drive> ProfidriveApp<D> {
 
 impl<D: Drive> Application for ProfidriveApp<D> {
     fn accept_user_prm(&mut self, user_prm: &[u8]) -> bool {
-        match UserPrm::parse(user_prm) {
+        let parsed = if self.dp_mode_dpv1 {
+            UserPrm::parse_dpv1(user_prm)
+        } else {
+            UserPrm::parse(user_prm)
+        };
+        match parsed {
             Ok(prm) => {
                 if prm.operation != self.prm.operation {
                     self.profile = Profile::default();
@@ -341,6 +373,15 @@ impl<D: Drive> Application for ProfidriveApp<D> {
 
     fn default_cfg(&self) -> &[u8] {
         Ppo::Ppo1.cfg()
+    }
+
+    fn msac1(
+        &mut self,
+        _now: Instant,
+        request: &dp_slave::msac1::Request,
+        out: &mut [u8],
+    ) -> usize {
+        self.dpv1.serve(request, out)
     }
 
     fn outputs(&mut self, now: Instant, outputs: &[u8]) {

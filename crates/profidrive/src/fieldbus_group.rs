@@ -8,7 +8,7 @@
 //! | 03 | BAUD RATE | the adapter, kbit/s as seed 004 lists them; read-only at the panel |
 //! | 04 | PPO-TYPE | the adapter, 1-6; read-only at the panel |
 //! | 05-20 | PZD3 OUT, PZD3 IN .. PZD10 OUT, PZD10 IN | the panel, or the adapter for a PROFIdrive 915/916 write |
-//! | 21 | DP MODE | the panel; the adapter is DP-V0 only and writes 0 back |
+//! | 21 | DP MODE | the panel: 0 DP-V0, 1 DP-V1 (taken at link-up and on refresh); the adapter shows the mode in force |
 //! | 27 | FBA PAR REFRESH | the panel sets REFRESH (1); the adapter writes DONE (0) once the settings are in force |
 //!
 //! Parameter 51.yy is the function code 51.yy ([`code`]): the index in decimal digits like
@@ -53,8 +53,9 @@ pub const LAST_INDEX: u8 = index::PAR_REFRESH;
 /// 51.27's values.
 pub const REFRESH: u16 = 1;
 pub const DONE: u16 = 0;
-/// 51.21's value for DP-V0, the only protocol this adapter speaks.
+/// 51.21's values: DP-V0, DP-V1.
 pub const DP_MODE_DPV0: u16 = 0;
+pub const DP_MODE_DPV1: u16 = 1;
 /// 51.01's value for this adapter. Seed 004 shows the type as text ("PROFIBUS DP"); the number
 /// is this link's choice, documented with the drive simulator.
 pub const MODULE_TYPE_PROFIBUS_DP: u16 = 1;
@@ -150,7 +151,6 @@ impl Default for FieldbusGroup {
     fn default() -> Self {
         let mut shown = [None; LAST_INDEX as usize + 1];
         shown[usize::from(index::MODULE_TYPE)] = Some(MODULE_TYPE_PROFIBUS_DP);
-        shown[usize::from(index::DP_MODE)] = Some(DP_MODE_DPV0);
         FieldbusGroup {
             phase: Phase::Loading {
                 at: 0,
@@ -399,11 +399,12 @@ mod tests {
         );
         assert_eq!((settings.dp_mode, settings.refreshed), (1, false));
         group.show_mapping(&settings.pzd_out, &settings.pzd_in);
-        // Now the shown values: module type, address, baud rate; DP-V0 back in 51.21.
+        // Now the shown values: module type, address, baud rate; 51.21 is the panel's until
+        // the adapter shows the mode it took.
         serve(&mut group, &mut drive, 0);
         assert_eq!(
             (drive[1], drive[2], drive[3], drive[21]),
-            (MODULE_TYPE_PROFIBUS_DP, 8, 1500, 0)
+            (MODULE_TYPE_PROFIBUS_DP, 8, 1500, 1)
         );
         assert_eq!((drive[5], drive[6]), (1202, 104), "the mapping unchanged");
         // The panel changes PZD4 OUT; nothing happens before the refresh.

@@ -148,6 +148,17 @@ impl UserPrm {
         ],
     };
 
+    /// The user data of seed 004's DP-V1 Set_Prm: the same fields, without the reserved first
+    /// byte (DPV1_Status_1-3 take bytes 7-9, the header is byte 10).
+    pub fn parse_dpv1(bytes: &[u8]) -> Result<UserPrm, PrmError> {
+        if bytes.len() != Self::LEN - 1 {
+            return Err(PrmError::Length(bytes.len()));
+        }
+        let mut with_reserved = [0u8; Self::LEN];
+        with_reserved[1..].copy_from_slice(bytes);
+        Self::parse(&with_reserved)
+    }
+
     pub fn parse(bytes: &[u8]) -> Result<UserPrm, PrmError> {
         if bytes.len() != Self::LEN {
             return Err(PrmError::Length(bytes.len()));

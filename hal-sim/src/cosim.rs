@@ -108,6 +108,11 @@ pub struct Master {
     pub inputs_wrong: u64,
     /// A commissioning tool, not profirust: only the PHY is used, by [`CoSim::tool_request`].
     pub tool: bool,
+    /// Where the echo program's PZD1 and PZD2 are in the outputs (8, after the PKW, for
+    /// PPO1; none for a PPO it does not run).
+    pub echo_at: Option<usize>,
+    /// A DP-V1 class-1 requester beside profirust's DP master, on the same FDL station.
+    pub msac1: Option<crate::msac1_master::Msac1Requester>,
 }
 
 /// profirust's name for a rate.
@@ -176,6 +181,8 @@ impl Master {
             inputs_checked: 0,
             inputs_wrong: 0,
             tool: false,
+            echo_at: (io.outputs == 12).then_some(8),
+            msac1: None,
         }
     }
 
@@ -189,7 +196,13 @@ impl Master {
             return;
         }
         let now = profirust::time::Instant::from_micros(now_us as i64);
-        self.fdl.poll(now, &mut self.phy, &mut self.dp);
+        match self.msac1.as_mut() {
+            Some(requester) => {
+                self.fdl
+                    .poll_multi(now, &mut self.phy, &mut [&mut self.dp, requester])
+            }
+            None => self.fdl.poll(now, &mut self.phy, &mut self.dp),
+        }
         let events = self.dp.take_last_events();
         if events.cycle_completed {
             let handle = self.handle;
@@ -197,9 +210,9 @@ impl Master {
             if peripheral.is_running() {
                 self.cycles += 1;
                 self.inputs.copy_from_slice(peripheral.pi_i());
-                if self.program == Program::EchoThroughDrive && self.outputs.len() == 12 {
+                if let (Program::EchoThroughDrive, Some(at)) = (self.program, self.echo_at) {
                     let word = |b: &[u8], at: usize| u16::from_be_bytes([b[at], b[at + 1]]);
-                    let (status, pzd2) = (word(&self.inputs, 8), word(&self.inputs, 10));
+                    let (status, pzd2) = (word(&self.inputs, at), word(&self.inputs, at + 2));
                     if self.cycles > 1 {
                         if status & 0xFF00 == PZD1_LINK_ERROR
                             || !(pzd2 == 0 || self.sent.contains(&pzd2))
@@ -212,8 +225,8 @@ impl Master {
                     let set_frequency = ((self.cycles / 16) % 49 + 1) as u16 * 100;
                     self.sent.insert(set_frequency);
                     self.outputs.fill(0);
-                    self.outputs[8..10].copy_from_slice(&ECHO_CONTROL_WORD.to_be_bytes());
-                    self.outputs[10..12].copy_from_slice(&set_frequency.to_be_bytes());
+                    self.outputs[at..at + 2].copy_from_slice(&ECHO_CONTROL_WORD.to_be_bytes());
+                    self.outputs[at + 2..at + 4].copy_from_slice(&set_frequency.to_be_bytes());
                 }
                 peripheral.pi_q_mut().copy_from_slice(&self.outputs);
             }

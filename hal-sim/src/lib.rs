@@ -19,5 +19,6 @@ pub mod cosim;
 pub mod dp_cycle;
 pub mod firmware;
 pub mod master;
+pub mod msac1_master;
 pub mod scenarios;
 pub mod serial;

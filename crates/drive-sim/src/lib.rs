@@ -153,6 +153,11 @@ impl DriveSim {
         self.output_milli = 0;
     }
 
+    /// Clears the fault, as a reset at the drive's panel does.
+    pub fn clear_fault(&mut self) {
+        self.fault = None;
+    }
+
     /// Injects (or clears) a warning AL.`code`.
     pub fn set_warning(&mut self, code: Option<u8>) {
         self.warning = code.map(|c| c & 0x3F);

@@ -337,8 +337,9 @@ fn drive_code(
     subindex: u16,
     elements: u8,
 ) -> Result<crate::codes::FunctionCode, ErrorNumber> {
-    if number == 0 || number > 0xFF || subindex > 0xFF {
-        // Data sets (number 0) belong to ABB drives; this drive has none.
+    // Data sets (number 0, subindex 1-99) belong to ABB drives: this drive has none, and
+    // `drive_parameter` finds no group 0.
+    if number > 0xFF || subindex > 0xFF {
         return Err(ErrorNumber::IllegalPnu);
     }
     if elements > 1 {

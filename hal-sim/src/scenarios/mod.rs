@@ -10,6 +10,7 @@
 //! --overwrite` (review it). qemu-test, `--only` and the in-process test read the catalog.
 
 mod bus;
+mod dpv1;
 mod drive;
 mod support;
 
@@ -28,6 +29,8 @@ pub enum Family {
     Bus,
     /// The drive behind the adapter.
     Drive,
+    /// DP-V1: acyclic parameter access beside the cyclic data.
+    Dpv1,
 }
 
 /// One row of the catalog.
@@ -52,7 +55,7 @@ const FACTORY_RESET_STORAGE: Option<NvRecord> = Some(NvRecord {
 /// Every scenario, in the order they run.
 pub fn catalog<F: Firmware>() -> Vec<Scenario<F>> {
     use Baud::*;
-    use Family::{Bus, Drive};
+    use Family::{Bus, Dpv1, Drive};
     let row = |name, family, rate, proves, run| Scenario {
         name,
         family,
@@ -90,6 +93,8 @@ pub fn catalog<F: Firmware>() -> Vec<Scenario<F>> {
         row("fail-safe-modes", Drive, B1500000, "PLC stop and watchdog in each fail-safe mode", drive::fail_safe_modes),
         row("drive-fieldbus-group", Drive, B1500000, "the drive's group 51: shown values, refresh, node address", drive::fieldbus_group),
         row("latency", Drive, B1500000, "out->drive and drive->in per PPO (report)", drive::latency),
+        row("dpv1-profidrive", Dpv1, B1500000, "PROFIdrive parameters over DP-V1 (MSAC1), PPO3: seed 004's examples and errors", dpv1::profidrive),
+        row("dpv1-profidrive-12M", Dpv1, B12000000, "PROFIdrive parameters over DP-V1 at 12 Mbit/s, PPO4", dpv1::profidrive),
     ];
     rows
 }

@@ -1,9 +1,11 @@
 //! The drive UART as the drive link sees it: embedded-hal-nb's serial traits over two byte
 //! queues that the board's drive interrupt fills and drains.
 //!
-//! Contract: `write` queues a byte and pends the drive interrupt, which runs at once (it has
-//! the highest priority) and moves what the hardware takes; the rest goes out from the
-//! transmit interrupt. `read` takes received bytes in order, and reports a line error (noise,
+//! Contract: `write` queues a byte; [`kick`] (the firmware calls it after each piece of work,
+//! `flush` does too) pends the drive interrupt, which runs at once (it has the highest
+//! priority) and moves what the hardware takes; the rest goes out from the transmit
+//! interrupt. One interrupt per request, not one per byte: a 25-byte PPO4 request cost 25
+//! interrupt entries and critical sections, a third of the drive link's step. `read` takes received bytes in order, and reports a line error (noise,
 //! framing, parity: seed 000's 0x21) once before the bytes that came with it. [`received`]
 //! counts every byte the interrupt took, for the simulated link's lockstep.
 
@@ -20,6 +22,15 @@ static RX: Mutex<RefCell<Deque<u8, QUEUE_LEN>>> = Mutex::new(RefCell::new(Deque:
 static TX: Mutex<RefCell<Deque<u8, QUEUE_LEN>>> = Mutex::new(RefCell::new(Deque::new()));
 static RECEIVED: AtomicU32 = AtomicU32::new(0);
 static LINE_ERROR: AtomicBool = AtomicBool::new(false);
+/// Bytes were queued since the drive interrupt last ran.
+static QUEUED: AtomicBool = AtomicBool::new(false);
+
+/// Starts sending what `write` queued (the drive interrupt moves it to the hardware).
+pub fn kick() {
+    if QUEUED.swap(false, Ordering::AcqRel) {
+        crate::board::pend_drive_interrupt();
+    }
+}
 
 /// Bytes the drive interrupt has received since reset.
 #[cfg_attr(not(feature = "sim"), allow(dead_code))]
@@ -73,11 +84,12 @@ impl Write<u8> for DriveUart {
         critical_section::with(|cs| TX.borrow_ref_mut(cs).push_back(byte))
             .map_err(|_| nb::Error::WouldBlock)?;
         self.sent = self.sent.wrapping_add(1);
-        crate::board::pend_drive_interrupt();
+        QUEUED.store(true, Ordering::Release);
         Ok(())
     }
 
     fn flush(&mut self) -> nb::Result<(), ErrorKind> {
+        kick();
         match critical_section::with(|cs| TX.borrow_ref(cs).is_empty()) {
             true => Ok(()),
             false => Err(nb::Error::WouldBlock),

@@ -232,6 +232,7 @@ macro_rules! adapter_app {
                         send(tx, frame, &write);
                     }
                 });
+                crate::drive_uart::kick();
                 log_changes(before, adapter);
                 true
             }
@@ -319,6 +320,8 @@ macro_rules! adapter_app {
                         adapter.decide(message, &mut out);
                     }
                 }
+                // What the step queued for the drive goes out now, in one interrupt.
+                crate::drive_uart::kick();
                 #[cfg(feature = "sim")]
                 send(tx, frame, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Done {
                     decision_instructions: decision.0,

@@ -127,12 +127,14 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
         match step {
             0 => self.service_pzd(now),
             1 => self.service_pkw(now),
-            2 => {
+            2 => self.service_dpv1(),
+            3 => self.drive_mut().pump(),
+            4 => {
                 self.drive_mut().poll_answer(now_us);
             }
-            3 => self.drive_mut().start_next(now_us),
-            4 => sync_fieldbus_group(self),
-            5 => self.service_pzd(now),
+            5 => self.drive_mut().start_next(now_us),
+            6 => sync_fieldbus_group(self),
+            7 => self.service_pzd(now),
             _ => {
                 self.service_pkw(now);
                 return Step::Done(self.drive().poll_at());
@@ -338,6 +340,11 @@ pub enum Out<'a> {
     DecisionWritten,
 }
 
+/// Global_Control, to one station or many.
+fn is_global_control(request: &fdl::Repr) -> bool {
+    matches!(request, fdl::Repr::Data(d) if d.dsap == Some(fdl::Sap::GLOBAL_CONTROL))
+}
+
 /// An MSAC1 request (SAP 51 with data; a poll has none).
 fn is_msac1_request(request: &fdl::Repr) -> bool {
     matches!(request, fdl::Repr::Data(d) if d.dsap == Some(fdl::Sap::MSAC1) && !d.payload.is_empty())
@@ -498,6 +505,12 @@ impl<A: Application + Background> Adapter<A> {
         // even when nothing changed, so that it knows the decision was taken.
         let mut decided = false;
         let mut new_outputs = false;
+        // An MSAC1 request changes nothing the transceiver answers but the response it
+        // writes here, and Global_Control nothing it answers at all (Clear, Sync and Freeze
+        // change what the firmware does with outputs and inputs): no registers, diagnosis or
+        // status follow them at once (a Data_Exchange arriving meanwhile waits for less),
+        // only the inputs and the cycle, whose last step writes the status.
+        let mut acyclic = false;
         match *message {
             ToAdapter::Boot { seq, .. } => {
                 self.seen = seq;
@@ -510,7 +523,8 @@ impl<A: Application + Background> Adapter<A> {
                 match fdl::Repr::parse_bytes(bytes) {
                     Ok((request, _)) => {
                         new_outputs = self.is_new_outputs(&request);
-                        decided = !new_outputs;
+                        acyclic = is_msac1_request(&request) || is_global_control(&request);
+                        decided = !new_outputs && !acyclic;
                         if baud != self.rate_told {
                             self.rate_told = baud;
                             self.slave.app_mut().inner.rate(baud);
@@ -545,12 +559,12 @@ impl<A: Application + Background> Adapter<A> {
         }
         let parts = Parts {
             inputs: true,
-            diag: !new_outputs,
-            cfg: !new_outputs,
+            diag: !new_outputs && !acyclic,
+            cfg: !new_outputs && !acyclic,
         };
         self.write_buffers(now, decided, parts, out);
         out(Out::DecisionWritten);
-        if !new_outputs {
+        if !new_outputs && !acyclic {
             // What the decision changed in the status (the state, the address, the DP LEDs)
             // is out before the cycle runs. The drive link's LEDs are the cycle's to change:
             // they keep what the last cycle showed, or they would go out for its length.

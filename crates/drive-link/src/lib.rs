@@ -241,16 +241,19 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
         }
     }
 
-    /// Moves bytes and finishes the transaction when it can; `now_us` runs the timeout.
-    pub fn poll(&mut self, now_us: u64) -> Option<Outcome> {
-        let pending = self.pending.as_mut()?;
+    /// Moves bytes only: the request into the UART, the answer out of it (without judging
+    /// it). Returns whether the whole request is out. A caller that must keep each piece of
+    /// work short pumps in one step and polls in the next.
+    pub fn pump(&mut self) -> bool {
+        if self.pending.is_none() {
+            return false;
+        }
         while self.tx_pos < self.tx.len() {
             match self.uart.write(self.tx[self.tx_pos]) {
                 Ok(()) => self.tx_pos += 1,
-                Err(_) => return None,
+                Err(_) => return false,
             }
         }
-        let sent_at = *pending.sent_at.get_or_insert(now_us);
         while self.rx.len() < self.rx.capacity() && !self.answer_complete() {
             match self.uart.read() {
                 Ok(byte) => {
@@ -268,6 +271,16 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
                 }
             }
         }
+        true
+    }
+
+    /// Moves bytes and finishes the transaction when it can; `now_us` runs the timeout.
+    pub fn poll(&mut self, now_us: u64) -> Option<Outcome> {
+        if !self.pump() {
+            return None;
+        }
+        let pending = self.pending.as_mut()?;
+        let sent_at = *pending.sent_at.get_or_insert(now_us);
         let result = if self.answer_complete() {
             let checked = self.check_answer();
             Some(match checked {

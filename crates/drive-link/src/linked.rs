@@ -195,6 +195,14 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         true
     }
 
+    /// Moves the transaction's bytes only (see [`ModbusMaster::pump`]): the step before
+    /// [`LinkedDrive::poll_answer`], so that neither holds the MCU long.
+    pub fn pump(&mut self) {
+        if self.job.is_some() {
+            self.master.pump();
+        }
+    }
+
     /// The request half of [`LinkedDrive::poll`]: starts the next transaction, if the link is
     /// free and one is due.
     pub fn start_next(&mut self, now_us: u64) {

@@ -195,10 +195,20 @@ impl<D: Drive> ProfidriveApp<D> {
         }
     }
 
-    /// The drive's I/O for the current process images, the PKW request and the cut-off.
+    /// The drive's I/O for the current process images, the PKW request, the DP-V1 request
+    /// and the cut-off.
     pub fn service(&mut self, now: Instant) {
         self.service_pzd(now);
         self.service_pkw(now);
+        self.service_dpv1();
+    }
+
+    /// The DP-V1 parameter request under way, one parameter on (see [`Dpv1Server::step`]).
+    pub fn service_dpv1(&mut self) {
+        if let Some(ppo) = self.ppo {
+            self.dpv1
+                .step(&mut self.params, &mut self.drive, ppo.number());
+        }
     }
 
     /// The process data half of [`ProfidriveApp::service`]: the fail-safe cut-off, and the
@@ -225,10 +235,6 @@ impl<D: Drive> ProfidriveApp<D> {
     /// The parameter half of [`ProfidriveApp::service`], after [`ProfidriveApp::service_pzd`]:
     /// the parameter channel, and the drive link's state for the diagnosis.
     pub fn service_pkw(&mut self, now: Instant) {
-        if let Some(ppo) = self.ppo {
-            self.dpv1
-                .step(&mut self.params, &mut self.drive, ppo.number());
-        }
         let Some(result) = self.exchanged.take() else {
             return;
         };

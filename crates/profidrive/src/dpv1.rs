@@ -157,7 +157,8 @@ impl Dpv1Server {
         }
     }
 
-    /// Moves the request on as far as the drive's answers allow; whether it moved.
+    /// Moves the request on by one parameter, as far as the drive's answers allow; whether it
+    /// moved (a caller with time to spare calls again).
     pub fn step(&mut self, params: &mut Parameters, drive: &mut impl Drive, ppo: u8) -> bool {
         let State::Running {
             mut next,
@@ -186,28 +187,25 @@ impl Dpv1Server {
             w.header(pdu.reference, pdu.id.into(), pdu.axis, pdu.count() as u8);
             self.response_len = w.len();
         }
-        let mut moved = false;
-        while next < pdu.count() {
+        // One parameter per call: a step of the application's cycle stays short whatever
+        // the request holds (a Data_Exchange waits for the step under way).
+        if next < pdu.count() {
             let outcome = match pdu.id {
                 RequestId::Read => {
                     self.read_one(&pdu, next, params, drive, ppo, &mut drive_request)
                 }
                 _ => self.change_one(&pdu, next, params, drive, &mut drive_request),
             };
-            match outcome {
-                None => {
-                    self.state = State::Running {
-                        next,
-                        drive: drive_request,
-                    };
-                    return moved;
-                }
-                Some(()) => {
-                    moved = true;
-                    drive_request = None;
-                    next += 1;
-                }
+            let moved = outcome.is_some();
+            if moved {
+                drive_request = None;
+                next += 1;
             }
+            self.state = State::Running {
+                next,
+                drive: drive_request,
+            };
+            return moved;
         }
         if pdu.id == RequestId::Change && self.outcomes[..pdu.count()].iter().any(Option::is_some) {
             let mut w = Writer::new(&mut self.response);

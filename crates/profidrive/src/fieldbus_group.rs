@@ -143,6 +143,10 @@ pub struct FieldbusGroup {
     done_due: bool,
     /// 51.02 after a refresh, until the adapter has decided on it.
     requested_address: Option<u16>,
+    /// A shown value may differ from what the drive holds: the next transaction looks. The
+    /// application shows its values on every cycle; looking only after a change keeps the
+    /// drive link's step short.
+    differs: bool,
     next_poll_us: u64,
     pub figures: GroupFigures,
 }
@@ -161,6 +165,7 @@ impl Default for FieldbusGroup {
             loaded: None,
             done_due: false,
             requested_address: None,
+            differs: true,
             next_poll_us: REFRESH_POLL_US,
             figures: GroupFigures::default(),
         }
@@ -171,8 +176,10 @@ impl FieldbusGroup {
     /// What the drive should hold in 51.`index` (the read-only ones, the address in force, a
     /// mapping written through PROFIdrive). 51.27 and indices outside the group are ignored.
     pub fn show(&mut self, index: u8, value: u16) {
-        if index_of(code(index)).is_some() && index != index::PAR_REFRESH {
+        let shown_by_adapter = (1..=index::DP_MODE).contains(&index);
+        if shown_by_adapter && self.shown[usize::from(index)] != Some(value) {
             self.shown[usize::from(index)] = Some(value);
+            self.differs = true;
         }
     }
 
@@ -193,6 +200,7 @@ impl FieldbusGroup {
     /// 51.02 as a refresh read it: the adapter takes it as its address (the switch at 0) or
     /// shows its own again. 51.02 is not written until this was taken.
     pub fn take_requested_address(&mut self) -> Option<u16> {
+        self.differs = true;
         self.requested_address.take()
     }
 
@@ -223,12 +231,18 @@ impl FieldbusGroup {
                     return Some(Transaction::Write(code(index::PAR_REFRESH), DONE));
                 }
                 let address_pending = self.requested_address.is_some();
-                let differs = (1..=LAST_INDEX).find(|i| {
-                    !(address_pending && *i == index::NODE_ADDRESS)
-                        && self.shown[usize::from(*i)].is_some_and(|v| self.held(*i) != Some(v))
+                let differs = self.differs.then(|| {
+                    (1..=LAST_INDEX).find(|i| {
+                        !(address_pending && *i == index::NODE_ADDRESS)
+                            && self.shown[usize::from(*i)].is_some_and(|v| self.held(*i) != Some(v))
+                    })
                 });
-                if let Some(i) = differs {
-                    return self.shown[usize::from(i)].map(|v| Transaction::Write(code(i), v));
+                match differs.flatten() {
+                    Some(i) => {
+                        return self.shown[usize::from(i)].map(|v| Transaction::Write(code(i), v))
+                    }
+                    // All written (a held-back address is looked at again once taken).
+                    None => self.differs = false,
                 }
                 if now_us >= self.next_poll_us {
                     self.next_poll_us = now_us + REFRESH_POLL_US;
@@ -243,6 +257,7 @@ impl FieldbusGroup {
     /// unknown; a load under way starts over.
     pub fn link_lost(&mut self) {
         self.held = [None; LAST_INDEX as usize + 1];
+        self.differs = true;
         if let Phase::Loading { at, .. } = &mut self.phase {
             *at = 0;
         }
@@ -250,6 +265,8 @@ impl FieldbusGroup {
 
     /// How a transaction of the group ended: the value read, or the value written.
     pub fn finish(&mut self, transaction: Transaction, result: Result<u16, DriveError>) {
+        // What the drive holds changes here: the shown values are compared again.
+        self.differs = true;
         let (code, written) = match transaction {
             Transaction::Read(c) => (c, None),
             Transaction::Write(c, v) => (c, Some(v)),

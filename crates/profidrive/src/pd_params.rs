@@ -146,7 +146,8 @@ pub fn drive_parameter(number: u16) -> Option<FunctionCode> {
     let (group, index) = ((number / 100) as u8, (number % 100) as u8);
     let bcd = (index / 10) << 4 | (index % 10);
     let code = match group {
-        1..=16 => FunctionCode::new(0xF0 + group - 1, bcd),
+        // 0xEF + group, not 0xF0 + group - 1: group 16 (FF) overflowed on the way.
+        1..=16 => FunctionCode::new(0xEF + group, bcd),
         21 => FunctionCode::new(0xD0, bcd),
         22 => FunctionCode::new(0xD1, bcd),
         30 => FunctionCode::new(0xDE, bcd),
@@ -669,6 +670,15 @@ mod tests {
                 Parameters::drive_reply(&request, result)
             }
         }
+    }
+
+    /// Groups 1-16 are F0-FF: the last one too (16.01 is FF.01).
+    #[test]
+    fn drive_groups_1_to_16_are_f0_to_ff() {
+        assert_eq!(drive_parameter(101), Some(FunctionCode(0xF001)));
+        assert_eq!(drive_parameter(1207), Some(FunctionCode(0xFB07)));
+        assert_eq!(drive_parameter(1601), Some(FunctionCode(0xFF01)));
+        assert_eq!(drive_parameter(1701), None);
     }
 
     #[test]

@@ -282,23 +282,22 @@ pub fn profidrive<F: Firmware>(
             x.response().is_some_and(|r| r.id == 0x02) && back.words(0) == Some(vec![u32::from(v)]),
         );
     }
-    // Three drive parameters of seed 000's drive in one read: F0.13, F0.14 (1.13, 1.14) and
-    // D0.04 (21.04), as the drive holds them.
+    // Three more drive parameters in one read, from two groups: 12.07, 12.08 and 16.01
+    // (seed 000's FB.07, FB.08, FF.01), set at the drive's panel first.
+    for (code, v) in [(0xFB07u16, 7u16), (0xFB08, 8), (0xFF01, 1601)] {
+        let _ = sim.drive_now().set_at_panel(code, v);
+    }
     let x = request(
         sim,
         10,
         RequestId::Read,
-        &[drive(113), drive(114), drive(2104)],
+        &[drive(1207), drive(1208), drive(1601)],
         &[],
     )?;
-    let d = sim.drive_now();
-    let held: Vec<Option<Vec<u32>>> = [0xF013u16, 0xF014, 0xD004]
-        .iter()
-        .map(|r| d.read_register(*r).ok().map(|v| vec![u32::from(v)]))
-        .collect();
     c.check(
-        "a read of three drive parameters (1.13, 1.14, 21.04): what the drive holds",
-        (0..3).map(|i| x.words(i)).collect::<Vec<_>>() == held,
+        "a read of three drive parameters (12.07, 12.08, 16.01): what the drive holds",
+        (0..3).map(|i| x.words(i)).collect::<Vec<_>>()
+            == [Some(vec![7]), Some(vec![8]), Some(vec![1601])],
     );
 
     // The errors, each of its class.

@@ -14,6 +14,55 @@ use dp_consts::Baud;
 
 /// The file name a configuration tool expects: vendor prefix and Ident_Number.
 pub const FILE_NAME: &str = "DPADD7A1.GSD";
+/// The DP-V1 file, as seed 004 ships ABB10812.GSD beside ABB_0812.GSD: the drive's 51.21 DP
+/// MODE = 1 selects it (its User_Prm_Data begins with DPV1_Status_1-3).
+pub const FILE_NAME_DPV1: &str = "DPA1D7A1.GSD";
+
+/// Which of the two files.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    /// GSD revision 2, DP-V0 (51.21 = 0).
+    DpV0,
+    /// GSD revision 3 with the DP-V1 keywords (51.21 = 1), as seed 004 says for ABB10812.GSD.
+    DpV1,
+}
+
+impl Variant {
+    pub const fn file_name(self) -> &'static str {
+        match self {
+            Variant::DpV0 => FILE_NAME,
+            Variant::DpV1 => FILE_NAME_DPV1,
+        }
+    }
+
+    /// Where User_Prm_Data byte `offset` of the DP-V0 layout sits in this file's: DP-V1 puts
+    /// the three status bytes where DP-V0 has one reserved byte.
+    const fn offset(self, offset: usize) -> usize {
+        match self {
+            Variant::DpV0 => offset,
+            Variant::DpV1 => offset + dp_consts::dpv1::STATUS_LEN - 1,
+        }
+    }
+
+    /// The default User_Prm_Data of this file.
+    pub fn default_user_prm(self) -> ([u8; dp_consts::dpv1::STATUS_LEN + UserPrm::LEN], usize) {
+        let mut out = [0u8; dp_consts::dpv1::STATUS_LEN + UserPrm::LEN];
+        let prm = UserPrm::DEFAULT.encode();
+        match self {
+            Variant::DpV0 => {
+                out[..UserPrm::LEN].copy_from_slice(&prm);
+                (out, UserPrm::LEN)
+            }
+            Variant::DpV1 => {
+                // DPV1_Enable; no alarms, no WD_Base_1ms.
+                out[0] = dp_consts::dpv1::status1::DPV1_ENABLE;
+                let len = dp_consts::dpv1::STATUS_LEN + UserPrm::LEN - 1;
+                out[dp_consts::dpv1::STATUS_LEN..len].copy_from_slice(&prm[1..]);
+                (out, len)
+            }
+        }
+    }
+}
 
 const VENDOR: &str = "Open DP drive adapter project";
 const MODEL: &str = "DP drive adapter";
@@ -109,8 +158,13 @@ fn fields() -> impl Iterator<Item = Field> {
     header.into_iter().chain(fail_safe).chain(rd).chain(wr)
 }
 
-/// Writes the GSD file.
+/// Writes the DP-V0 GSD file.
 pub fn write(out: &mut impl Write) -> fmt::Result {
+    write_variant(out, Variant::DpV0)
+}
+
+/// Writes the GSD file of `variant`.
+pub fn write_variant(out: &mut impl Write, variant: Variant) -> fmt::Result {
     let line = |out: &mut dyn Write, key: &str, value: &dyn fmt::Display| {
         writeln!(out, "{key:<22}= {value}")
     };
@@ -123,7 +177,11 @@ pub fn write(out: &mut impl Write) -> fmt::Result {
         out,
         "; Do not edit: it is generated from the constants the firmware uses."
     )?;
-    line(out, "GSD_Revision", &2)?;
+    line(
+        out,
+        "GSD_Revision",
+        &if variant == Variant::DpV1 { 3 } else { 2 },
+    )?;
     line(out, "Vendor_Name", &Quoted(VENDOR))?;
     line(out, "Model_Name", &Quoted(MODEL))?;
     line(out, "Revision", &Quoted("1.0"))?;
@@ -182,7 +240,25 @@ pub fn write(out: &mut impl Write) -> fmt::Result {
         &(dp_consts::diag::STANDARD_LEN + crate::app::EXT_DIAG_LEN as usize),
     )?;
     line(out, "Slave_Family", &1)?;
-    line(out, "Max_User_Prm_Data_Len", &UserPrm::LEN)?;
+    let (defaults, user_prm_len) = variant.default_user_prm();
+    line(out, "Max_User_Prm_Data_Len", &user_prm_len)?;
+    if variant == Variant::DpV1 {
+        // MSAC1 read and write of up to 240 bytes (the PROFIdrive parameter channel, index
+        // 47); a master waits up to 1 s (100 x 10 ms) for an answer, while the adapter
+        // answers its polls within TSDR and reads with B5h while busy. No alarms.
+        line(out, "DPV1_Slave", &1)?;
+        line(out, "C1_Read_Write_supp", &1)?;
+        line(out, "C1_Max_Data_Len", &dp_consts::dpv1::MAX_DATA_LEN)?;
+        line(out, "C1_Response_Timeout", &100)?;
+        line(out, "C1_Read_Write_required", &0)?;
+        line(out, "WD_Base_1ms_supp", &1)?;
+        line(out, "Diagnostic_Alarm_supp", &0)?;
+        line(out, "Process_Alarm_supp", &0)?;
+        line(out, "Pull_Plug_Alarm_supp", &0)?;
+        line(out, "Status_Alarm_supp", &0)?;
+        line(out, "Update_Alarm_supp", &0)?;
+        line(out, "Manufacturer_Specific_Alarm_supp", &0)?;
+    }
     writeln!(out)?;
     writeln!(
         out,
@@ -239,7 +315,7 @@ pub fn write(out: &mut impl Write) -> fmt::Result {
     }
     writeln!(out)?;
     write!(out, "Ext_User_Prm_Data_Const(0) = ")?;
-    for (i, b) in UserPrm::DEFAULT.encode().iter().enumerate() {
+    for (i, b) in defaults[..user_prm_len].iter().enumerate() {
         if i > 0 {
             write!(out, ",")?;
             if i % 12 == 0 {
@@ -252,7 +328,12 @@ pub fn write(out: &mut impl Write) -> fmt::Result {
     }
     writeln!(out)?;
     for (n, f) in fields().enumerate() {
-        writeln!(out, "Ext_User_Prm_Data_Ref({}) = {}", f.offset, n + 1)?;
+        writeln!(
+            out,
+            "Ext_User_Prm_Data_Ref({}) = {}",
+            variant.offset(f.offset),
+            n + 1
+        )?;
     }
     writeln!(out)?;
     for ppo in Ppo::ALL {

@@ -155,3 +155,81 @@ fn the_default_user_parameters_are_what_set_prm_accepts() {
         OperationMode::AbbDrives
     );
 }
+
+fn dpv1_text() -> String {
+    let mut text = String::new();
+    profidrive::gsd::write_variant(&mut text, profidrive::gsd::Variant::DpV1).unwrap();
+    text
+}
+
+/// Seed 004: "对于 DP-V1，必须使用 GSD 文件版本 3 或更高" (ABB10812.GSD). The DP-V1 file is
+/// revision 3, declares MSAC1 and parses with gsd-parser.
+#[test]
+fn the_dpv1_file_is_revision_3_with_the_dpv1_keywords() {
+    let text = dpv1_text();
+    let value = |key: &str| {
+        text.lines()
+            .find(|l| l.split('=').next().is_some_and(|k| k.trim() == key))
+            .and_then(|l| l.split('=').nth(1))
+            .map(|v| v.trim().to_string())
+    };
+    assert_eq!(value("GSD_Revision").as_deref(), Some("3"));
+    assert_eq!(value("DPV1_Slave").as_deref(), Some("1"));
+    assert_eq!(value("C1_Read_Write_supp").as_deref(), Some("1"));
+    assert_eq!(value("C1_Max_Data_Len").as_deref(), Some("240"));
+    assert!(value("C1_Response_Timeout").is_some());
+    assert_eq!(value("WD_Base_1ms_supp").as_deref(), Some("1"));
+    gsd_parser::parser::parse(std::path::Path::new(profidrive::gsd::FILE_NAME_DPV1), &text)
+        .unwrap_or_else(|e| panic!("{e}\n{text}"));
+}
+
+/// Its default User_Prm_Data is DPV1_Status_1-3 (DPV1_Enable) and the DP-V0 fields without
+/// the reserved byte: a slave in DP-V1 mode takes it, and a tool's choice lands in the field.
+#[test]
+fn the_dpv1_user_parameters_are_what_a_dpv1_set_prm_carries() {
+    let text = dpv1_text();
+    let gsd = gsd_parser::parser::parse(std::path::Path::new("x.gsd"), &text).unwrap();
+    let defaults = gsd_parser::PrmBuilder::new(&gsd.user_prm_data).into_bytes();
+    assert_eq!(defaults[..3], [0x80, 0, 0]);
+    assert_eq!(defaults[3..], UserPrm::DEFAULT.encode()[1..]);
+    let mut builder = gsd_parser::PrmBuilder::new(&gsd.user_prm_data);
+    builder.set_prm_from_text("Operation mode", "PROFIdrive (seed 004)");
+    builder.set_prm("WrPZD3", 0xF105);
+    let bytes = builder.as_bytes().to_vec();
+    let prm = UserPrm::parse_dpv1(&bytes[3..]).unwrap();
+    assert_eq!(
+        (prm.operation, prm.wr_pzd[1].0),
+        (OperationMode::Profidrive, 0xF105)
+    );
+    // Through the slave: Set_Prm with the DP-V1 layout, 51.21 = 1.
+    let mut app = ProfidriveApp::new(MockDrive::default());
+    app.set_dp_mode_dpv1(true);
+    let mut slave = dp_slave::Slave::new(
+        dp_slave::Config {
+            address: 8,
+            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+            no_add_chg: false,
+            dpv1_status_bytes: true,
+        },
+        app,
+    );
+    let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
+    let mut set_prm = vec![0x88, 10, 10, 11, hi, lo, 0];
+    set_prm.extend_from_slice(&bytes);
+    let request = fdl::Repr::Data(fdl::DataRepr {
+        da: 8,
+        sa: 2,
+        dsap: Some(fdl::Sap::SET_PRM),
+        ssap: Some(fdl::Sap::MASTER_MS0),
+        fc: fdl::FrameControl::Request {
+            fcb: true,
+            fcv: false,
+            function: fdl::RequestFunction::SrdLow,
+        },
+        payload: &set_prm,
+    });
+    slave.process(dp_slave::Instant::ZERO, &request);
+    assert!(!slave.prm_fault());
+    assert!(slave.dpv1_enabled());
+    assert_eq!(slave.app().prm().operation, OperationMode::Profidrive);
+}

@@ -18,6 +18,9 @@
 //! - `--pty-link PATH` (with `--port pty`): where the stable symlink to the pty goes (default
 //!   `target/qemu-run.pty`), so that a master's configuration names one path from run to run.
 //!   Only a symlink is ever replaced there, and it is removed at the end of the run.
+//! - `--dpv1` (with `--port`): the simulated drive's 51.21 DP MODE = 1, set at its panel and
+//!   taken with a refresh: the adapter expects a DP-V1 Set_Prm (the GSD DPA1D7A1.GSD from
+//!   `cargo xtask gsd`) and serves MSAC1 on SAP 51 (the PROFIdrive parameter channel, index 47).
 //! - `--log`: the firmware's defmt log, decoded (with the table of the image QEMU runs), a line
 //!   as each comes, between the status lines.
 //!
@@ -116,7 +119,7 @@ fn check_alive(firmware: &mut Qemu, log: &mut Option<LiveLog>) -> Result<()> {
 pub fn run(args: &[String]) -> Result<()> {
     check_flags(
         args,
-        &["--log"],
+        &["--log", "--dpv1"],
         &[
             "--port",
             "--baud",
@@ -151,8 +154,12 @@ pub fn run(args: &[String]) -> Result<()> {
     if check.is_none() && flag_value(args, "--ppo")?.is_some() {
         bail!("--ppo is the check's master's PPO: use it with --check");
     }
-    if check.is_none() && flag_value(args, "--ppo")?.is_some() {
-        bail!("--ppo is the check's master's PPO: use it with --check");
+    let dpv1 = args.iter().any(|a| a == "--dpv1");
+    if dpv1 && (flag_value(args, "--port")?.is_none() || check.is_some()) {
+        bail!(
+            "--dpv1 is for a DP-V1 master of your own on --port (the simulated bus's master and \
+             the check's are DP-V0)"
+        );
     }
     let switch: u8 = flag_value(args, "--switch")?
         .unwrap_or("8")
@@ -197,6 +204,7 @@ pub fn run(args: &[String]) -> Result<()> {
                     check: check.map(|s| (s, ppo)),
                     pty_link: &link,
                     log,
+                    dpv1,
                 },
             )
         }
@@ -320,6 +328,8 @@ struct PortRun<'a> {
     baud: u32,
     stop_at: Option<Duration>,
     check: Option<(f64, profidrive::ppo::Ppo)>,
+    /// The drive's 51.21 DP MODE = 1: the adapter takes DP-V1 Set_Prm and serves MSAC1.
+    dpv1: bool,
     pty_link: &'a std::path::Path,
     log: Option<LiveLog>,
 }
@@ -332,12 +342,24 @@ fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
         check,
         pty_link,
         mut log,
+        dpv1,
     } = run;
     let dp_baud = Baud::ALL
         .into_iter()
         .find(|b| b.bits_per_second() == baud)
         .unwrap_or(Baud::B19200);
     let mut adapter = SerialAdapter::new(firmware, switch, dp_baud)?;
+    if dpv1 {
+        // As a user would at the drive's panel: 51.21 = 1, then a refresh (51.27).
+        use profidrive::fieldbus_group::{self as fieldbus, index};
+        let drive = &mut adapter.bridge.drive.drive;
+        let _ = drive.set_at_panel(fieldbus::code(index::DP_MODE).0, fieldbus::DP_MODE_DPV1);
+        let _ = drive.set_at_panel(fieldbus::code(index::PAR_REFRESH).0, fieldbus::REFRESH);
+        println!(
+            "qemu-run: the drive's 51.21 DP MODE = 1: configure the master with {} (DP-V1)",
+            profidrive::gsd::FILE_NAME_DPV1
+        );
+    }
     // The pty's other end must stay open while we run (or the check's master holds it).
     let mut _pty_other_end = None;
     let mut _linked = None;

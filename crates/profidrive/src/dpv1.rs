@@ -704,6 +704,54 @@ mod tests {
         assert_eq!(b.server.figures.busy_reads, 2);
     }
 
+    /// Attribute 20h: element 1 the identifier (Unsigned16 6, OctetString 10), element 2 the
+    /// number of array elements; a drive parameter has no description (09h).
+    #[test]
+    fn descriptions_of_the_adapters_parameters() {
+        let mut b = Bench::new();
+        let description = |number, subindex| ParamAddress {
+            attribute: Attribute::Description,
+            ..value(number, subindex, 0)
+        };
+        let response = b.request(
+            RequestId::Read,
+            &[
+                description(915, 1),
+                description(915, 2),
+                description(918, 2),
+                description(919, 1),
+                description(4, 2),
+            ],
+            &[],
+        );
+        let parsed = ParamResponsePdu::parse(&response).unwrap();
+        let word = |i| parsed.values(i).and_then(|v| v.get(0));
+        assert_eq!(
+            (word(0), word(1), word(2), word(3)),
+            (Some(6), Some(10), Some(0), Some(10))
+        );
+        let v = parsed.values(4).unwrap();
+        assert_eq!((v.format, v.get(0)), (Format::Error, Some(0x09)));
+    }
+
+    /// Slot 0 (the device) is served like slot 1.
+    #[test]
+    fn slot_0_is_served_too() {
+        let mut b = Bench::new();
+        let at = Address { slot: 0, ..AT };
+        let mut out = [0u8; MAX_LEN];
+        let n = build_request(&mut out, 5, RequestId::Read, 1, &[value(918, 0, 0)], &[]).unwrap();
+        assert_eq!(
+            b.msac1(Request::Write {
+                at,
+                data: &out[..n]
+            })[..2],
+            [0x5F, 0]
+        );
+        while b.server.step(&mut b.params, &mut b.drive, 3) {}
+        assert_eq!(b.msac1(Request::Read { at, length: 240 })[..2], [0x5E, 0]);
+    }
+
     /// A drive that does not answer: the request ends with error 6Fh (timeout), it does not
     /// hang.
     #[test]

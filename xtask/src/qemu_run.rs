@@ -440,7 +440,10 @@ fn serial_port(firmware: Qemu, switch: u8, run: PortRun) -> Result<()> {
         // The firmware's work one QEMU round trip at a time, with the port served in between:
         // a request that arrives meanwhile is answered within one round trip, not after all
         // of them (two answers later than the master's slot time make it give the slave up).
-        while adapter.poll_one(start.elapsed().as_micros() as u64)? {
+        // Up to the time at the top of this pass only: work that falls due meanwhile waits for
+        // the next pass, or a host slower than the bus for a while would never leave here.
+        let due_us = start.elapsed().as_micros() as u64;
+        while adapter.poll_one(due_us)? {
             let waiting = port.bytes_to_read().unwrap_or(0) as usize;
             if waiting > 0 {
                 let n = port.read(&mut buf[..waiting.min(512)]).unwrap_or(0);

@@ -127,12 +127,14 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
         match step {
             0 => self.service_pzd(now),
             1 => self.service_pkw(now),
-            2 => self.service_dpv1(),
-            3 => self.drive_mut().pump(),
-            4 => {
+            2 => self.drive_mut().pump(),
+            3 => {
                 self.drive_mut().poll_answer(now_us);
             }
-            5 => self.drive_mut().start_next(now_us),
+            4 => self.drive_mut().start_next(now_us),
+            // After the drive's transaction has started: a DP-V1 parameter costs the process
+            // data no time.
+            5 => self.service_dpv1(),
             6 => sync_fieldbus_group(self),
             7 => self.service_pzd(now),
             _ => {

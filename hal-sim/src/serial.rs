@@ -159,6 +159,46 @@ impl<F: Firmware> SerialAdapter<F> {
     }
 }
 
+/// profirust as a PC master would run on a serial port: address 2, the slave at `address` with
+/// `ppo` and the echo program's user parameters, profirust's timing at 187.5 kbit/s with a
+/// slot time of 1000 bits (5.3 ms) for the host's latency (as a PC master allows for a USB
+/// converter), a 300 ms watchdog. For the pty check and the tests that stand in for it.
+pub fn pc_master(
+    address: u8,
+    ppo: profidrive::ppo::Ppo,
+) -> (
+    profirust::dp::DpMaster<'static>,
+    profirust::dp::PeripheralHandle,
+    profirust::fdl::FdlActiveStation,
+) {
+    use profirust::dp::{DpMaster, Peripheral, PeripheralOptions};
+    use profirust::fdl::{FdlActiveStation, ParametersBuilder};
+    let user_prm: &'static [u8] = crate::cosim::echo_user_prm().encode().to_vec().leak();
+    let mut dp = DpMaster::new(vec![]);
+    let handle = dp.add(Peripheral::new(
+        address,
+        PeripheralOptions {
+            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+            user_parameters: Some(user_prm),
+            config: Some(ppo.cfg()),
+            fail_safe: true,
+            ..Default::default()
+        },
+        vec![0u8; ppo.io_bytes()],
+        vec![0u8; ppo.io_bytes()],
+    ));
+    let mut fdl = FdlActiveStation::new(
+        ParametersBuilder::new(2, profirust::Baudrate::B187500)
+            .highest_station_address(3)
+            .slot_bits(1000)
+            .watchdog_timeout(profirust::time::Duration::from_millis(300))
+            .build_verified(&dp),
+    );
+    fdl.set_online();
+    dp.enter_operate();
+    (dp, handle, fdl)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -293,33 +333,9 @@ mod tests {
     /// parameterises it again and data exchange resumes.
     #[test]
     fn a_master_that_gave_up_after_two_lost_answers_gets_the_slave_back() {
-        use profirust::dp::{DpMaster, Peripheral, PeripheralOptions};
-        use profirust::fdl::{FdlActiveStation, ParametersBuilder};
         let mut adapter =
             SerialAdapter::new(InProcess::new(), 8, dp_consts::Baud::B187500).unwrap();
-        let ppo = profidrive::ppo::Ppo::Ppo3;
-        let user_prm: &'static [u8] = crate::cosim::echo_user_prm().encode().to_vec().leak();
-        let mut dp = DpMaster::new(vec![]);
-        let handle = dp.add(Peripheral::new(
-            8,
-            PeripheralOptions {
-                ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
-                user_parameters: Some(user_prm),
-                config: Some(ppo.cfg()),
-                ..Default::default()
-            },
-            vec![0u8; ppo.io_bytes()],
-            vec![0u8; ppo.io_bytes()],
-        ));
-        let mut fdl = FdlActiveStation::new(
-            ParametersBuilder::new(2, profirust::Baudrate::B187500)
-                .highest_station_address(3)
-                .slot_bits(1000)
-                .watchdog_timeout(profirust::time::Duration::from_millis(300))
-                .build_verified(&dp),
-        );
-        fdl.set_online();
-        dp.enter_operate();
+        let (mut dp, handle, mut fdl) = pc_master(8, profidrive::ppo::Ppo::Ppo3);
         let mut phy = LossyPhy {
             adapter: &mut adapter,
             now_us: 0,

@@ -9,8 +9,6 @@
 
 use anyhow::{bail, Result};
 use profidrive::ppo::Ppo;
-use profirust::dp::{DpMaster, Peripheral, PeripheralOptions};
-use profirust::fdl::{FdlActiveStation, ParametersBuilder};
 use profirust::phy::ProfibusPhy;
 use rand::{Rng, SeedableRng};
 use serialport::{SerialPort, TTYPort};
@@ -99,34 +97,10 @@ pub fn run(port: TTYPort, address: u8, seconds: f64, ppo: Ppo) -> Result<CheckRe
         received: Vec::new(),
         trace: Default::default(),
     };
-    let mut dp = DpMaster::new(vec![]);
+    let (mut dp, handle, mut fdl) = hal_sim::serial::pc_master(address, ppo);
     // The PZD follow the PKW where there is one: PZD1 the control or status word, PZD2 the
     // set or actual frequency.
     let pzd = if ppo.has_pkw() { 8 } else { 0 };
-    let user_prm: &'static [u8] = hal_sim::cosim::echo_user_prm().encode().to_vec().leak();
-    let handle = dp.add(Peripheral::new(
-        address,
-        PeripheralOptions {
-            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
-            user_parameters: Some(user_prm),
-            config: Some(ppo.cfg()),
-            fail_safe: true,
-            ..Default::default()
-        },
-        vec![0u8; ppo.io_bytes()],
-        vec![0u8; ppo.io_bytes()],
-    ));
-    let mut fdl = FdlActiveStation::new(
-        // A pty has no bit timing: profirust's timing at 187.5 kbit/s, with a slot time of 1000
-        // bits (5.3 ms) for the host's latency, as a PC master allows for a USB converter.
-        ParametersBuilder::new(2, profirust::Baudrate::B187500)
-            .highest_station_address(3)
-            .slot_bits(1000)
-            .watchdog_timeout(profirust::time::Duration::from_millis(300))
-            .build_verified(&dp),
-    );
-    fdl.set_online();
-    dp.enter_operate();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5EED);
     let start = Instant::now();
     let (mut cycles, mut left, mut bursts, mut junk_bytes) = (0u64, 0u64, 0u64, 0u64);

@@ -251,7 +251,14 @@ impl<D: Drive> ProfidriveApp<D> {
                     let finish = |bytes: &[u8; 8], result| {
                         Parameters::drive_reply(&Frame::decode(bytes), result).encode()
                     };
-                    self.pkw.service_with(&mut self.drive, plan, finish);
+                    let reads = |bytes: &[u8; 8]| {
+                        use crate::pd_params::RequestLabel as Rq;
+                        matches!(
+                            Frame::decode(bytes).request_label(),
+                            Rq::Read | Rq::ReadArray | Rq::ArrayCount
+                        )
+                    };
+                    self.pkw.service_with(&mut self.drive, plan, finish, reads);
                 }
             }
         }

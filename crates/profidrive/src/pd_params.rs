@@ -382,8 +382,9 @@ const TABLE: &[Row] = &[
     Row { first: 945, last: 945, slot: |p, _| Slot::Array(&mut p.fault_codes), rights: Rights::Read, check: any_value },
     Row { first: 947, last: 947, slot: |p, _| Slot::Array(&mut p.fault_numbers), rights: Rights::Read, check: any_value },
     Row { first: 948, last: 948, slot: |p, _| Slot::Array(&mut p.fault_times), rights: Rights::Read, check: any_value },
-    // 952: the fault count; only 0 may be written (it clears the count).
-    Row { first: 952, last: 952, slot: |p, _| Slot::Word(&mut p.fault_count), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(0)(v) },
+    // 952: the fault count; only 0 may be written (it clears the count): anything else is
+    // error 6, "set not allowed (reset only)" (seed 004's error list, line 875).
+    Row { first: 952, last: 952, slot: |p, _| Slot::Word(&mut p.fault_count), rights: Rights::ReadWrite, check: |_, _, _, v| if v == 0 { Ok(()) } else { Err(ErrorNumber::ResetOnly) } },
     Row { first: 953, last: 960, slot: |p, at| Slot::Word(&mut p.alarms[at]), rights: Rights::Read, check: any_value },
     Row { first: 961, last: 961, slot: |p, _| Slot::Octets(&p.hardware), rights: Rights::Read, check: any_value },
     Row { first: 963, last: 963, slot: |p, _| Slot::Word(&mut p.baud_code), rights: Rights::Read, check: any_value },
@@ -464,20 +465,24 @@ impl Parameters {
         let index = u16::from(request.index);
         let new = request.value as u16;
         let kind = (row.slot)(self, at).kind();
-        match (label, kind) {
-            (Rq::WriteWord, SlotKind::Word) => {
-                return match self.write_word(request.pnu, 0, new) {
-                    Ok(()) => request.reply(ResponseLabel::Word, u32::from(new)),
-                    Err(e) => err(e),
-                }
+        // Seed 004's request table: 2 and 3 change a value (word, double word; answered 1 and
+        // 2), 7 and 8 an array element (answered 4 and 5). The parameters are words: a double
+        // word beyond 16 bits is out of range.
+        let write = match (label, kind) {
+            (Rq::WriteWord, SlotKind::Word) => Some((0, ResponseLabel::Word)),
+            (Rq::WriteDword, SlotKind::Word) => Some((0, ResponseLabel::Dword)),
+            (Rq::WriteArrayWord, SlotKind::Array) => Some((index, ResponseLabel::ArrayWord)),
+            (Rq::WriteArrayDword, SlotKind::Array) => Some((index, ResponseLabel::ArrayDword)),
+            _ => None,
+        };
+        if let Some((subindex, answer)) = write {
+            if request.value > u32::from(u16::MAX) {
+                return err(ErrorNumber::OutOfRange);
             }
-            (Rq::WriteArrayWord, SlotKind::Array) => {
-                return match self.write_word(request.pnu, index, new) {
-                    Ok(()) => request.reply(ResponseLabel::ArrayWord, u32::from(new)),
-                    Err(e) => err(e),
-                }
-            }
-            _ => {}
+            return match self.write_word(request.pnu, subindex, new) {
+                Ok(()) => request.reply(answer, u32::from(new)),
+                Err(e) => err(e),
+            };
         }
         match (label, (row.slot)(self, at)) {
             (Rq::Read, Slot::Word(value)) => request.reply(ResponseLabel::Word, u32::from(*value)),
@@ -502,14 +507,14 @@ impl Parameters {
             (Rq::ArrayCount, Slot::Array(values)) => {
                 request.reply(ResponseLabel::ArrayCount, values.len() as u32)
             }
-            (Rq::ReadElement | Rq::WriteElement | Rq::WriteDword | Rq::WriteArrayDword, _) => {
-                err(ErrorNumber::UnsupportedRequest)
-            }
-            (Rq::ReadArray | Rq::WriteArrayWord | Rq::ArrayCount, _) => {
+            (Rq::ReadElement | Rq::WriteElement, _) => err(ErrorNumber::UnsupportedRequest),
+            (Rq::ReadArray | Rq::WriteArrayWord | Rq::WriteArrayDword | Rq::ArrayCount, _) => {
                 err(ErrorNumber::NotAnArray)
             }
-            (Rq::Read | Rq::WriteWord, Slot::Array(_)) => err(ErrorNumber::WrongDataType),
-            (Rq::WriteWord, Slot::Octets(_)) => err(ErrorNumber::ReadOnly),
+            (Rq::Read | Rq::WriteWord | Rq::WriteDword, Slot::Array(_)) => {
+                err(ErrorNumber::WrongDataType)
+            }
+            (Rq::WriteWord | Rq::WriteDword, Slot::Octets(_)) => err(ErrorNumber::ReadOnly),
             _ => err(ErrorNumber::UnsupportedRequest),
         }
     }
@@ -599,9 +604,18 @@ impl Parameters {
 
     /// The answer to a drive parameter request (planned by [`Parameters::plan`]) once the
     /// drive answered.
+    /// The response label follows seed 004's request table: a value (1, 2) is answered 1, a
+    /// double word (3) 2, an array element (6, 7) 4, a double-word element (8) 5.
     pub fn drive_reply(request: &Frame, result: Result<u16, DriveError>) -> Frame {
+        use RequestLabel as Rq;
+        let label = match request.request_label() {
+            Rq::Read | Rq::WriteWord => ResponseLabel::Word,
+            Rq::WriteDword => ResponseLabel::Dword,
+            Rq::WriteArrayDword => ResponseLabel::ArrayDword,
+            _ => ResponseLabel::ArrayWord,
+        };
         match result {
-            Ok(v) => request.reply(ResponseLabel::ArrayWord, u32::from(v)),
+            Ok(v) => request.reply(label, u32::from(v)),
             Err(e) => request.refuse(link_error(e)),
         }
     }
@@ -631,9 +645,13 @@ fn drive_access(request: &Frame) -> Result<Frame, Access> {
     };
     match request.request_label() {
         Rq::ReadArray | Rq::Read => Err(Access::Read(code)),
-        Rq::WriteArrayWord | Rq::WriteWord => {
+        Rq::WriteArrayWord | Rq::WriteWord | Rq::WriteDword | Rq::WriteArrayDword => {
             if !code.is_writable() {
                 return err(ErrorNumber::ReadOnly);
+            }
+            // The drive's parameters are words: a double word beyond 16 bits is out of range.
+            if request.value > u32::from(u16::MAX) {
+                return err(ErrorNumber::OutOfRange);
             }
             Err(Access::Write(code, request.value as u16))
         }
@@ -679,6 +697,89 @@ mod tests {
         assert_eq!(drive_parameter(1207), Some(FunctionCode(0xFB07)));
         assert_eq!(drive_parameter(1601), Some(FunctionCode(0xFF01)));
         assert_eq!(drive_parameter(1701), None);
+    }
+
+    /// Seed 004 line 875: error 6, "set not allowed (reset only)", for a non-zero write to 952.
+    #[test]
+    fn seed_004_line_875_952_takes_only_a_reset() {
+        let mut p = Parameters::default();
+        let mut drive = MockDrive::default();
+        p.fault_count = 3;
+        let r = run(&mut p, &mut drive, RequestLabel::WriteWord, 952, 0, 5);
+        assert_eq!((r.response_label(), r.value), (ResponseLabel::Error, 6));
+        let r = run(&mut p, &mut drive, RequestLabel::WriteWord, 952, 0, 0);
+        assert_eq!(
+            (r.response_label(), p.fault_count),
+            (ResponseLabel::Word, 0)
+        );
+    }
+
+    /// Seed 004 lines 858-863, the request table: labels 3 and 8 (double-word writes) are
+    /// served, answered 2 and 5; a value beyond 16 bits is out of range.
+    #[test]
+    fn seed_004_lines_858_863_double_word_writes() {
+        let mut p = Parameters::default();
+        let mut drive = MockDrive::default();
+        let r = run(&mut p, &mut drive, RequestLabel::WriteDword, 918, 0, 9);
+        assert_eq!(
+            (r.response_label(), r.value, p.node_address),
+            (ResponseLabel::Dword, 9, 9)
+        );
+        let r = run(
+            &mut p,
+            &mut drive,
+            RequestLabel::WriteDword,
+            918,
+            0,
+            0x1_0000,
+        );
+        assert_eq!((r.response_label(), r.value), (ResponseLabel::Error, 2));
+        let r = run(
+            &mut p,
+            &mut drive,
+            RequestLabel::WriteArrayDword,
+            915,
+            3,
+            0x4B6,
+        );
+        assert_eq!(
+            (r.response_label(), p.pzd_out[2]),
+            (ResponseLabel::ArrayDword, 0x4B6)
+        );
+        // A drive parameter (1.13 = F0.13) the same way.
+        let r = run(&mut p, &mut drive, RequestLabel::WriteDword, 0, 0x71, 25);
+        assert_eq!(
+            (r.response_label(), drive.get(0xF013)),
+            (ResponseLabel::Dword, 25)
+        );
+    }
+
+    /// Seed 004 lines 855-864: a drive parameter's value read with label 1 or written with
+    /// label 2 is answered 1; as an array element (6, 7), 4.
+    #[test]
+    fn seed_004_lines_855_864_drive_parameter_response_labels() {
+        let mut p = Parameters::default();
+        let mut drive = MockDrive::default();
+        drive.set(0xF013, 30);
+        let label = |p: &mut Parameters, d: &mut MockDrive, rq, v| {
+            run(p, d, rq, 0, 0x71, v).response_label()
+        };
+        assert_eq!(
+            label(&mut p, &mut drive, RequestLabel::Read, 0),
+            ResponseLabel::Word
+        );
+        assert_eq!(
+            label(&mut p, &mut drive, RequestLabel::WriteWord, 31),
+            ResponseLabel::Word
+        );
+        assert_eq!(
+            label(&mut p, &mut drive, RequestLabel::ReadArray, 0),
+            ResponseLabel::ArrayWord
+        );
+        assert_eq!(
+            label(&mut p, &mut drive, RequestLabel::WriteArrayWord, 32),
+            ResponseLabel::ArrayWord
+        );
     }
 
     #[test]

@@ -9,8 +9,11 @@
 //! way, agree byte for byte (tests below); its typesetting scatters the D1.00 example over two
 //! lines, read here as `10 D1 00 00 00 00 00 00`.
 //!
-//! [`PkwServer`] (for both profiles) executes a request once: the same request repeated keeps
-//! its answer, and only a changed request starts a new one. A request that needs the drive is
+//! [`PkwServer`] (for both profiles) executes a write once: the same request repeated keeps its
+//! answer, and only a changed request starts a new one (the drive's memory wears). A read left
+//! in the outputs is executed again on every service, so a PLC that polls a value this way sees
+//! it change (neither manual freezes it: seed 000 lines 238-355, seed 004 lines 851-864); the
+//! master sees the previous answer until the new one is there. A request that needs the drive is
 //! a [`ParamRequest`], submitted and polled on later services until the drive answered; a
 //! write of the value the drive already holds does not write (the drive's non-volatile memory
 //! wears).
@@ -151,6 +154,9 @@ impl PkwServer {
     pub fn received(&mut self, bytes: [u8; PKW_BYTES]) {
         if self.answered != Some(bytes) {
             self.pending = Some(bytes);
+        } else if self.pending.is_some_and(|p| p != bytes) {
+            // Back to the request answered last, before the new one was: nothing to do.
+            self.pending = None;
         }
     }
 
@@ -163,18 +169,20 @@ impl PkwServer {
                 Planned::Drive(access) => Planned::Drive(access),
             },
             |bytes, result| reply(&Request::decode(bytes), result).encode(),
+            |bytes| Request::decode(bytes).task == Task::Read,
         );
     }
 
     /// Moves a pending request on with the profile's `plan` (its reply now, or a drive access;
     /// called on every service while the access is under way, so it must not act) and
     /// `finish` (the reply once the drive answered). Until then the master keeps seeing the
-    /// previous reply.
+    /// previous reply. `reads`: the request only reads, and is executed again while it stays.
     pub fn service_with<D: Drive>(
         &mut self,
         drive: &mut D,
         mut plan: impl FnMut(&[u8; PKW_BYTES]) -> Planned<[u8; PKW_BYTES]>,
         finish: impl FnOnce(&[u8; PKW_BYTES], Result<u16, DriveError>) -> [u8; PKW_BYTES],
+        reads: impl FnOnce(&[u8; PKW_BYTES]) -> bool,
     ) {
         let Some(bytes) = self.pending else {
             return;
@@ -203,7 +211,8 @@ impl PkwServer {
         };
         self.reply = reply;
         self.answered = Some(bytes);
-        self.pending = None;
+        // A read stays pending: the next service reads the value again.
+        self.pending = reads(&bytes).then_some(bytes);
     }
 
     /// The reply to put into the inputs.
@@ -320,5 +329,33 @@ mod tests {
         server.received([0x20, 0xF0, 0x29, 0, 0, 0, 0, 0x31]);
         server.service(&mut drive);
         assert_eq!(drive.persistent_writes, 2);
+    }
+
+    /// Issue 18: seed 000 (lines 238-355) and seed 004 (lines 851-864) describe a read as
+    /// answering the parameter's value; a read left in the outputs follows the value, while a
+    /// write left there stays written once.
+    #[test]
+    fn seed_000_lines_238_355_a_read_left_in_place_follows_the_value() {
+        let mut drive = MockDrive::default();
+        let mut server = PkwServer::default();
+        let read = [0x10, 0xF0, 0x13, 0, 0, 0, 0, 0];
+        drive.set(0xF013, 100);
+        server.received(read);
+        server.service(&mut drive);
+        assert_eq!(server.reply()[6..], [0, 100]);
+        drive.set(0xF013, 250);
+        server.received(read);
+        server.service(&mut drive);
+        assert_eq!(
+            server.reply()[6..],
+            [0, 250],
+            "not frozen at the first value"
+        );
+        let write = [0x20, 0xF0, 0x29, 0, 0, 0, 0, 0x30];
+        for _ in 0..3 {
+            server.received(write);
+            server.service(&mut drive);
+        }
+        assert_eq!(drive.persistent_writes, 1, "a write stays once");
     }
 }

@@ -380,7 +380,8 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> i
         )?;
         c.check(
             format!("PKW write drive parameter {pnu_number} = 10: accepted"),
-            pd_reply(&r).is_some_and(|(l, v)| l == ResponseLabel::ArrayWord && v == 10),
+            // Seed 004's request table: a word written with label 2 is answered label 1.
+            pd_reply(&r).is_some_and(|(l, v)| l == ResponseLabel::Word && v == 10),
         );
     }
     let r = pkw(sim, pd_request(RequestLabel::Read, 918, 0, 0), &out[4..])?;

@@ -240,7 +240,7 @@ impl<D: Drive> ProfidriveApp<D> {
         };
         if let Some(ppo) = self.ppo.filter(|p| p.has_pkw()) {
             match self.prm.operation {
-                OperationMode::Vendor => self.pkw.service(&mut self.drive),
+                OperationMode::Vendor => self.pkw.service(&mut self.drive, now.micros()),
                 OperationMode::Profidrive | OperationMode::AbbDrives => {
                     let params = &mut self.params;
                     let plan =
@@ -258,7 +258,8 @@ impl<D: Drive> ProfidriveApp<D> {
                             Rq::Read | Rq::ReadArray | Rq::ArrayCount
                         )
                     };
-                    self.pkw.service_with(&mut self.drive, plan, finish, reads);
+                    self.pkw
+                        .service_with(&mut self.drive, now.micros(), plan, finish, reads);
                 }
             }
         }

@@ -11,9 +11,9 @@
 //!
 //! [`PkwServer`] (for both profiles) executes a write once: the same request repeated keeps its
 //! answer, and only a changed request starts a new one (the drive's memory wears). A read left
-//! in the outputs is executed again on every service, so a PLC that polls a value this way sees
-//! it change (neither manual freezes it: seed 000 lines 238-355, seed 004 lines 851-864); the
-//! master sees the previous answer until the new one is there. A request that needs the drive is
+//! in the outputs is executed again every [`READ_REFRESH_US`], so a PLC that polls a value this
+//! way sees it change (neither manual freezes it: seed 000 lines 238-355, seed 004 lines
+//! 851-864); the master sees the previous answer until the new one is there. A request that needs the drive is
 //! a [`ParamRequest`], submitted and polled on later services until the drive answered; a
 //! write of the value the drive already holds does not write (the drive's non-volatile memory
 //! wears).
@@ -22,6 +22,11 @@ use crate::codes::{CodeKind, FunctionCode};
 use crate::drive::{Access, Drive, DriveError, ParamRequest};
 
 pub const PKW_BYTES: usize = 8;
+
+/// How often a read left in the outputs is read again: the period at which held outputs are
+/// written again, so that the drive link keeps its PZD cycle (a read on every turn would halve
+/// it).
+pub const READ_REFRESH_US: u64 = 10_000;
 
 dp_consts::code_point! {
     /// The task a request asks for (its ID, the high nibble of byte 0).
@@ -144,6 +149,8 @@ pub struct PkwServer {
     answered: Option<[u8; PKW_BYTES]>,
     /// A request received and not yet answered.
     pending: Option<[u8; PKW_BYTES]>,
+    /// The read answered last, and when: it is read again after [`READ_REFRESH_US`].
+    refresh: Option<([u8; PKW_BYTES], u64)>,
     /// The drive access of the pending request, under way.
     in_flight: Option<([u8; PKW_BYTES], ParamRequest)>,
     reply: [u8; PKW_BYTES],
@@ -154,16 +161,15 @@ impl PkwServer {
     pub fn received(&mut self, bytes: [u8; PKW_BYTES]) {
         if self.answered != Some(bytes) {
             self.pending = Some(bytes);
-        } else if self.pending.is_some_and(|p| p != bytes) {
-            // Back to the request answered last, before the new one was: nothing to do.
-            self.pending = None;
+            self.refresh = None;
         }
     }
 
-    /// Moves a pending request of the vendor profile on, if any.
-    pub fn service(&mut self, drive: &mut impl Drive) {
+    /// Moves a pending request of the vendor profile on, if any, at `now_us`.
+    pub fn service(&mut self, drive: &mut impl Drive, now_us: u64) {
         self.service_with(
             drive,
+            now_us,
             |bytes| match plan(&Request::decode(bytes)) {
                 Planned::Reply(r) => Planned::Reply(r.encode()),
                 Planned::Drive(access) => Planned::Drive(access),
@@ -180,10 +186,16 @@ impl PkwServer {
     pub fn service_with<D: Drive>(
         &mut self,
         drive: &mut D,
+        now_us: u64,
         mut plan: impl FnMut(&[u8; PKW_BYTES]) -> Planned<[u8; PKW_BYTES]>,
         finish: impl FnOnce(&[u8; PKW_BYTES], Result<u16, DriveError>) -> [u8; PKW_BYTES],
         reads: impl FnOnce(&[u8; PKW_BYTES]) -> bool,
     ) {
+        if let Some((bytes, at)) = self.refresh {
+            if self.pending.is_none() && now_us.saturating_sub(at) >= READ_REFRESH_US {
+                self.pending = Some(bytes);
+            }
+        }
         let Some(bytes) = self.pending else {
             return;
         };
@@ -211,8 +223,9 @@ impl PkwServer {
         };
         self.reply = reply;
         self.answered = Some(bytes);
-        // A read stays pending: the next service reads the value again.
-        self.pending = reads(&bytes).then_some(bytes);
+        self.pending = None;
+        // A read is read again while it stays (see `received`).
+        self.refresh = reads(&bytes).then_some((bytes, now_us));
     }
 
     /// The reply to put into the inputs.
@@ -235,7 +248,7 @@ mod tests {
     fn run(drive: &mut MockDrive, request: [u8; 8]) -> [u8; 8] {
         let mut server = PkwServer::default();
         server.received(request);
-        server.service(drive);
+        server.service(drive, 0);
         server.reply()
     }
 
@@ -314,20 +327,20 @@ mod tests {
         let write = [0x20, 0xF0, 0x29, 0, 0, 0, 0, 0x30];
         for _ in 0..5 {
             server.received(write);
-            server.service(&mut drive);
+            server.service(&mut drive, 0);
             assert_eq!(server.reply(), [0x10, 0xF0, 0x29, 0, 0, 0, 0, 0x30]);
         }
         assert_eq!(drive.persistent_writes, 1);
         // The same value written by a new request (another parameter in between) does not
         // write the memory again.
         server.received([0x10, 0xF0, 0x29, 0, 0, 0, 0, 0]);
-        server.service(&mut drive);
+        server.service(&mut drive, 0);
         server.received(write);
-        server.service(&mut drive);
+        server.service(&mut drive, 0);
         assert_eq!(drive.persistent_writes, 1);
         // A new value does.
         server.received([0x20, 0xF0, 0x29, 0, 0, 0, 0, 0x31]);
-        server.service(&mut drive);
+        server.service(&mut drive, 0);
         assert_eq!(drive.persistent_writes, 2);
     }
 
@@ -341,11 +354,18 @@ mod tests {
         let read = [0x10, 0xF0, 0x13, 0, 0, 0, 0, 0];
         drive.set(0xF013, 100);
         server.received(read);
-        server.service(&mut drive);
+        server.service(&mut drive, 0);
         assert_eq!(server.reply()[6..], [0, 100]);
         drive.set(0xF013, 250);
         server.received(read);
-        server.service(&mut drive);
+        server.service(&mut drive, READ_REFRESH_US - 1);
+        assert_eq!(
+            server.reply()[6..],
+            [0, 100],
+            "read again after the refresh period"
+        );
+        server.received(read);
+        server.service(&mut drive, READ_REFRESH_US);
         assert_eq!(
             server.reply()[6..],
             [0, 250],
@@ -354,7 +374,7 @@ mod tests {
         let write = [0x20, 0xF0, 0x29, 0, 0, 0, 0, 0x30];
         for _ in 0..3 {
             server.received(write);
-            server.service(&mut drive);
+            server.service(&mut drive, 0);
         }
         assert_eq!(drive.persistent_writes, 1, "a write stays once");
     }

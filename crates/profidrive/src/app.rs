@@ -324,7 +324,16 @@ impl<D: Drive> ProfidriveApp<D> {
         }
         self.pzd_in = from_drive;
         if let Err(e) = result {
-            self.pzd_in[0] = PZD1_LINK_ERROR | u16::from(e.code());
+            self.pzd_in[0] = if profidrive {
+                // Seed 000's C0xxh laid into table 8 would read "ready to run, no fault"
+                // (issue 18): the PROFIdrive way is TRIPPED, the cause in 945/947 and the
+                // extended diagnosis.
+                let off_bits =
+                    crate::profile::status::OFF_2_STA | crate::profile::status::OFF_3_STA;
+                crate::profile::status::TRIPPED | (self.profile.status_word(0) & off_bits)
+            } else {
+                PZD1_LINK_ERROR | u16::from(e.code())
+            };
         }
         result
     }
@@ -345,6 +354,11 @@ impl<D: Drive> ProfidriveApp<D> {
     }
 
     fn note_link(&mut self, now: Instant, error: Option<DriveError>) {
+        let was_lost = self.link_error.is_some_and(DriveError::is_link_fault);
+        if let Some(e) = error.filter(|e| e.is_link_fault() && !was_lost) {
+            self.faults.link_lost(now, e.code(), &mut self.params);
+            self.diag_changed = true;
+        }
         self.link_error = error;
         let faulted = self.drive_status & status::FAULT != 0;
         if self.link_diag.note(now, error, faulted) {
@@ -622,6 +636,38 @@ mod tests {
         // A single bad answer is reported with its own code.
         app.drive_mut().fail_next = Some(DriveError::CrcError);
         assert_eq!(exchange(&mut app, 1030, &ppo3(START, 5000))[0], 0xC023);
+    }
+
+    /// Issue 18, seed 000 line 465 and seed 004 lines 725-745: in the PROFIdrive mode a lost
+    /// drive is a fault the PROFIdrive way (TRIPPED in the status word, not C0xxh, which a
+    /// table-8 status word reads as "ready to run, no fault"), its cause in 945/947 and the
+    /// extended diagnosis; when the link is back, the status word follows the drive again.
+    #[test]
+    fn seed_004_lines_725_745_a_lost_drive_in_the_profidrive_mode_is_tripped() {
+        use crate::profile::control as pd;
+        let prm = UserPrm {
+            operation: OperationMode::Profidrive,
+            ..UserPrm::DEFAULT
+        };
+        let mut app = app_with(prm, Ppo::Ppo3);
+        exchange(&mut app, 0, &ppo3(pd::READY, 0x2000));
+        app.drive_mut().disconnected = true;
+        let inputs = exchange(&mut app, 10, &ppo3(pd::READY, 0x2000));
+        assert_eq!(inputs[0] & 0xFF00, 0, "no C0xxh: {:#06X}", inputs[0]);
+        assert_ne!(inputs[0] & crate::profile::status::TRIPPED, 0);
+        assert_eq!(inputs[0] & crate::profile::status::RDY_RUN, 0);
+        let p = app.params();
+        assert_eq!((p.fault_codes[0], p.fault_numbers[0]), (0x7510, 0x22));
+        assert_eq!(p.fault_count, 1);
+        let mut diag = [0u8; 8];
+        assert_eq!(app.ext_diag(&mut diag), 2);
+        assert_eq!(diag[1], EXT_DIAG_LINK_LOST_TEMPORARILY);
+        // Still lost: no second entry.
+        exchange(&mut app, 20, &ppo3(pd::READY, 0x2000));
+        assert_eq!(app.params().fault_count, 1);
+        app.drive_mut().disconnected = false;
+        let inputs = exchange(&mut app, 30, &ppo3(pd::READY, 0x2000));
+        assert_eq!(inputs[0] & crate::profile::status::TRIPPED, 0);
     }
 
     #[test]

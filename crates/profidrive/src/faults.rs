@@ -8,6 +8,9 @@ use crate::drive::{Access, Drive, FaultRecord, ParamRequest};
 use crate::pd_params::{Parameters, FAULT_SUBINDICES};
 use dp_slave::Instant;
 
+/// DRIVECOM's code for a fault of serial interface 1 (communication, 75xxh).
+pub const DRIVECOM_SERIAL_INTERFACE: u16 = 0x7510;
+
 /// The buffer's state beside the parameters it fills.
 #[derive(Clone, Debug, Default)]
 pub struct FaultBuffer {
@@ -47,6 +50,22 @@ impl FaultBuffer {
             Ok(FaultRecord::Fault(n)) => u16::from(n),
             _ => 0,
         };
+        // The drive reports Fu.xxx numbers, not DRIVECOM codes: 945 and 947 both hold it.
+        self.push(at, number, number, params);
+        true
+    }
+
+    /// The drive link was lost at `at` (a link fault, `link_error` its seed 000 value): it
+    /// goes into the buffer as a fault of its own, so that a PLC in the PROFIdrive profile
+    /// finds the cause (issue 18, seed 004 lines 725-745): 945 the DRIVECOM code 7510h
+    /// (communication, serial interface 1: the drive link is one), 947 the link's error value
+    /// (21h noise, 22h no answer, 23h CRC).
+    pub fn link_lost(&mut self, at: Instant, link_error: u8, params: &mut Parameters) {
+        self.push(at, DRIVECOM_SERIAL_INTERFACE, u16::from(link_error), params);
+    }
+
+    /// A new fault at sub-index 1, the older ones one place on.
+    fn push(&mut self, at: Instant, code: u16, number: u16, params: &mut Parameters) {
         for slot in (1..FAULT_SUBINDICES.len()).rev() {
             let (to, from) = (
                 usize::from(FAULT_SUBINDICES[slot]) - 1,
@@ -55,15 +74,13 @@ impl FaultBuffer {
             params.fault_codes[to] = params.fault_codes[from];
             params.fault_numbers[to] = params.fault_numbers[from];
         }
-        // The drive reports Fu.xxx numbers, not DRIVECOM codes: 945 and 947 both hold it.
-        params.fault_codes[0] = number;
+        params.fault_codes[0] = code;
         params.fault_numbers[0] = number;
         params.fault_count = params.fault_count.saturating_add(1);
         // A new array, not `copy_within`: an overlapping copy links a 1.5 KiB memmove into
         // the production board's flash.
         let older = self.at;
         self.at = core::array::from_fn(|i| if i == 0 { Some(at) } else { older[i - 1] });
-        true
     }
 
     /// 948: the seconds since each fault, at `now`.

@@ -409,7 +409,22 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> i
         "PKW read 113 from a drive that does not answer: error 111, timeout",
         pd_reply(&r) == Some((ResponseLabel::Error, 111)),
     );
+    // The lost link the PROFIdrive way (issue 18): TRIPPED, not C0xxh; 945[1] = 7510h.
+    let tripped = wait(sim, 100_000, |i, _| {
+        i[4] & pds::TRIPPED != 0 && i[4] & 0xFF00 != profidrive::drive::PZD1_LINK_ERROR
+    })?;
+    let r = pkw(
+        sim,
+        pd_request(RequestLabel::ReadArray, 945, 1, 0),
+        &out[4..],
+    )?;
+    c.check(
+        "the drive link lost in the PROFIdrive mode: status word TRIPPED (no C0xxh), 945[1] = 7510h",
+        tripped && pd_reply(&r) == Some((ResponseLabel::ArrayWord, 0x7510)),
+    );
     sim.drive_now().link_fault = LinkFault::None;
+    let back = wait(sim, 100_000, |i, _| i[4] & pds::TRIPPED == 0)?;
+    c.check("the link back: TRIPPED clears", back);
     out[4] = pd::OPERATE;
     put(sim, &out);
     let running = wait(sim, 800_000, |i, d| {

@@ -314,6 +314,9 @@ impl<A: Application> Application for Recording<A> {
     fn ext_diag(&mut self, buffer: &mut [u8]) -> usize {
         self.inner.ext_diag(buffer)
     }
+    fn ext_diag_reported(&self) -> bool {
+        self.inner.ext_diag_reported()
+    }
     fn diag_changed(&mut self) -> bool {
         self.inner.diag_changed()
     }

@@ -50,6 +50,13 @@ pub trait Application {
         0
     }
 
+    /// Whether the extended diagnosis reports something (Station_Status_1's Ext_Diag), for an
+    /// application whose extended diagnosis is always there (seed 004: "fixed to 2" bytes,
+    /// with no flag set while all is well). By default, whenever there is one.
+    fn ext_diag_reported(&self) -> bool {
+        true
+    }
+
     /// Whether the diagnosis changed since the master last read it: the slave then answers
     /// Data_Exchange with DH until it is read.
     fn diag_changed(&mut self) -> bool {

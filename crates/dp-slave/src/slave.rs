@@ -598,7 +598,7 @@ impl<A: Application> Slave<A> {
         if self.cfg_fault {
             st1 |= diag::ST1_CFG_FAULT;
         }
-        if ext_len > 0 {
+        if ext_len > 0 && self.app.ext_diag_reported() {
             st1 |= diag::ST1_EXT_DIAG;
         }
         if self.prm_fault {

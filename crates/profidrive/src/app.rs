@@ -462,6 +462,10 @@ impl<D: Drive> Application for ProfidriveApp<D> {
         self.link_diag.write(buffer)
     }
 
+    fn ext_diag_reported(&self) -> bool {
+        self.link_diag.reported()
+    }
+
     fn diag_changed(&mut self) -> bool {
         core::mem::take(&mut self.diag_changed)
     }
@@ -632,7 +636,10 @@ mod tests {
             (status::COMMAND_FROM_BUS | status::REFERENCE_FROM_BUS | status::AT_SETPOINT) & 0xFF00
         );
         assert!(app.diag_changed());
-        assert_eq!(app.ext_diag(&mut diag), 0);
+        // Seed 004 line 731: still 2 bytes, no flag set, and not reported as a diagnosis.
+        assert_eq!(app.ext_diag(&mut diag), 2);
+        assert_eq!(diag[..2], [2, 0]);
+        assert!(!app.ext_diag_reported());
         // A single bad answer is reported with its own code.
         app.drive_mut().fail_next = Some(DriveError::CrcError);
         assert_eq!(exchange(&mut app, 1030, &ppo3(START, 5000))[0], 0xC023);
@@ -668,6 +675,33 @@ mod tests {
         app.drive_mut().disconnected = false;
         let inputs = exchange(&mut app, 30, &ppo3(pd::READY, 0x2000));
         assert_eq!(inputs[0] & crate::profile::status::TRIPPED, 0);
+    }
+
+    /// Seed 004 line 731: the extended diagnosis is always 2 bytes ("fixed to 2"); with no
+    /// flag set, Station_Status_1 does not report it (Ext_Diag clear).
+    #[test]
+    fn seed_004_line_731_the_extended_diagnosis_is_always_two_bytes() {
+        let app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        let mut slave = dp_slave::Slave::new(
+            dp_slave::Config {
+                address: 8,
+                ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+                no_add_chg: false,
+                dpv1_status_bytes: false,
+            },
+            app,
+        );
+        let mut diag = [0u8; 16];
+        let (len, _) = slave.write_diag(&mut diag);
+        assert_eq!(len, 8);
+        assert_eq!(diag[6..8], [2, 0]);
+        assert_eq!(diag[0] & dp_consts::diag::ST1_EXT_DIAG, 0);
+        slave.app_mut().drive_mut().disconnected = true;
+        slave.app_mut().service_pzd(Instant::from_millis(1));
+        slave.app_mut().service_pkw(Instant::from_millis(1));
+        let (len, _) = slave.write_diag(&mut diag);
+        assert_eq!((len, diag[7]), (8, EXT_DIAG_LINK_LOST_TEMPORARILY));
+        assert_ne!(diag[0] & dp_consts::diag::ST1_EXT_DIAG, 0);
     }
 
     #[test]

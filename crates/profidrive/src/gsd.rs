@@ -268,6 +268,9 @@ pub fn write_variant(out: &mut impl Write, variant: Variant) -> fmt::Result {
         out,
         "Unit_Diag_Bit(1)      = \"Drive link permanently lost\""
     )?;
+    // Seed 004 leaves bits 2-7 unused; this adapter reports the drive's fault in bit 2, so its
+    // GSD says so.
+    writeln!(out, "Unit_Diag_Bit(2)      = \"Drive fault\"")?;
     writeln!(out)?;
     let texts: [(u8, &[&str]); 3] = [
         (1, &["Stop", "Last speed", "Use fail-safe values"]),

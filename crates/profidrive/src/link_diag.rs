@@ -49,13 +49,19 @@ impl LinkDiagnosis {
         changed
     }
 
-    /// The extended diagnosis into `buffer`: its length (none while no flag is set).
+    /// The extended diagnosis into `buffer`: its length, always 2 (seed 004 line 731: "Fixed
+    /// to 2"), the flags 0 while all is well.
     pub fn write(&self, buffer: &mut [u8]) -> usize {
-        if self.flags == 0 || buffer.len() < 2 {
+        if buffer.len() < 2 {
             return 0;
         }
         buffer[0] = EXT_DIAG_LEN;
         buffer[1] = self.flags;
         2
+    }
+
+    /// Whether a flag is set (Station_Status_1's Ext_Diag).
+    pub fn reported(&self) -> bool {
+        self.flags != 0
     }
 }

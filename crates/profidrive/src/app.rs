@@ -292,6 +292,7 @@ impl<D: Drive> ProfidriveApp<D> {
         // The drive's own status word, not the one the master saw (translated, or 0xC0xx).
         from_drive[0] = self.drive_status;
         let was_faulted = self.drive_status & status::FAULT != 0;
+        let from_drive_was_warning = self.drive_status & status::WARNING != 0;
         let result = self.drive.exchange_pzd(
             &to_drive[..words],
             &targets[..words - 1],
@@ -301,9 +302,14 @@ impl<D: Drive> ProfidriveApp<D> {
         self.drive_status = from_drive[0];
         let faulted = self.drive_status & status::FAULT != 0;
         self.faults.observe(now, was_faulted, faulted);
+        let was_warning = from_drive_was_warning;
+        self.faults
+            .observe_warning(was_warning, self.drive_status & status::WARNING != 0);
         if self.faults.service(&mut self.drive, &mut self.params) {
             self.diag_changed = true;
         }
+        self.faults
+            .service_warnings(&mut self.drive, &mut self.params);
         if profidrive {
             self.profile.observe(self.drive_status);
             from_drive[0] = self.profile.status_word(self.drive_status);
@@ -702,6 +708,59 @@ mod tests {
         let (len, _) = slave.write_diag(&mut diag);
         assert_eq!((len, diag[7]), (8, EXT_DIAG_LINK_LOST_TEMPORARILY));
         assert_ne!(diag[0] & dp_consts::diag::ST1_EXT_DIAG, 0);
+    }
+
+    /// Seed 004 line 972: 945 sub-index 1 of 0 means no fault. After the fault is reset it
+    /// reads 0 and the fault is in the history (sub-index 9); table 22 (lines 1526-1533): the
+    /// drive's warnings in 953 (current) and 954-957, 958-960 not supported.
+    #[test]
+    fn seed_004_line_972_and_table_22_fault_reset_and_warnings() {
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        exchange(&mut app, 0, &ppo3(START, 5000));
+        app.drive_mut().fault = Some(12);
+        exchange(&mut app, 10, &ppo3(START, 5000));
+        exchange(&mut app, 20, &ppo3(START, 5000));
+        assert_eq!(app.params().fault_codes[0], 12);
+        // The master resets the fault (the control word's reset bit rising).
+        exchange(
+            &mut app,
+            30,
+            &ppo3(START | crate::words::control::FAULT_RESET, 5000),
+        );
+        exchange(&mut app, 40, &ppo3(START, 5000));
+        exchange(&mut app, 50, &ppo3(START, 5000));
+        let p = app.params();
+        assert_eq!(
+            (p.fault_codes[0], p.fault_codes[8]),
+            (0, 12),
+            "945.1 is 0, 945.9 the fault"
+        );
+        assert_eq!(p.fault_count, 1);
+        // A warning AL.036, then it goes.
+        app.drive_mut().warning = Some(36);
+        exchange(&mut app, 60, &ppo3(START, 5000));
+        exchange(&mut app, 70, &ppo3(START, 5000));
+        assert_eq!(app.params().alarms[0], 36);
+        app.drive_mut().warning = None;
+        exchange(&mut app, 80, &ppo3(START, 5000));
+        exchange(&mut app, 90, &ppo3(START, 5000));
+        assert_eq!(app.params().alarms[..2], [0, 36]);
+        // 958-960: not supported.
+        let mut p = app.params().clone();
+        let read = |p: &mut Parameters, pnu| {
+            let frame = Frame {
+                label: 1,
+                pnu,
+                index: 0,
+                value: 0,
+            };
+            match p.plan(&frame, 3) {
+                crate::pkw::Planned::Reply(r) => (r.label, r.value),
+                crate::pkw::Planned::Drive(_) => (0xFF, 0),
+            }
+        };
+        assert_eq!(read(&mut p, 957), (1, 0));
+        assert_eq!(read(&mut p, 958), (7, 0), "error 0: no such parameter here");
     }
 
     #[test]

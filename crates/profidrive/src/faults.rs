@@ -1,7 +1,10 @@
 //! The PROFIdrive fault buffer (seed 004's 945, 947, 948, 952): a new drive fault goes in at
 //! sub-index 1, the older ones move on by 8 (sub-indices 9, 17, .., 41), and 948 counts the
-//! seconds since each. The fault's number is read from the drive's fault record (DE.00) with a
-//! [`ParamRequest`]: the buffer never waits for the drive.
+//! seconds since each. When the fault is reset, sub-index 1 goes back to 0 ("0: no fault",
+//! seed 004 line 972) and the fault moves on to the history. The drive's warnings (AL.xxx) go
+//! the same way into 953-957, the current alarm and the four before it (table 22). Numbers are
+//! read from the drive's fault record (DE.00) with a [`ParamRequest`]: the buffer never waits
+//! for the drive.
 
 use crate::codes::{named, FunctionCode};
 use crate::drive::{Access, Drive, FaultRecord, ParamRequest};
@@ -20,6 +23,23 @@ pub struct FaultBuffer {
     due: Option<Instant>,
     /// The read of the drive's fault record for it, under way.
     read: Option<ParamRequest>,
+    /// The fault was reset: sub-index 1 goes back to 0.
+    reset_due: bool,
+    /// A warning came (its number still to read), or went.
+    warning_due: bool,
+    warning_read: Option<ParamRequest>,
+    warning_gone: bool,
+}
+
+/// The alarms 953-957 hold (seed 004 table 22: 958-960 "不支持").
+pub const ALARMS: usize = 5;
+
+/// 953-957 one place on (957 is dropped). Element by element: an overlapping copy links a
+/// memmove into the production board's flash.
+fn shift_alarms(params: &mut Parameters) {
+    for i in (1..ALARMS).rev() {
+        params.alarms[i] = params.alarms[i - 1];
+    }
 }
 
 impl FaultBuffer {
@@ -28,12 +48,60 @@ impl FaultBuffer {
         if !was_faulted && faulted {
             self.due = Some(now);
         }
+        if was_faulted && !faulted {
+            self.reset_due = true;
+        }
+    }
+
+    /// The drive's status word went from `was_warning` to `warning`.
+    pub fn observe_warning(&mut self, was_warning: bool, warning: bool) {
+        if !was_warning && warning {
+            self.warning_due = true;
+        }
+        if was_warning && !warning {
+            self.warning_gone = true;
+        }
+    }
+
+    /// The warning half of the service: 953 the current alarm (0: none), 954-957 the ones
+    /// before it. Whether the alarms changed.
+    pub fn service_warnings(&mut self, drive: &mut impl Drive, params: &mut Parameters) -> bool {
+        if self.warning_due {
+            let read = self
+                .warning_read
+                .get_or_insert(ParamRequest::new(Access::Read(FunctionCode(
+                    named::FAULT_RECORD,
+                ))));
+            let Some(record) = read.poll(drive) else {
+                return false;
+            };
+            self.warning_read = None;
+            self.warning_due = false;
+            if let Ok(FaultRecord::Warning(n)) = record.map(|r| FaultRecord::from_byte(r as u8)) {
+                shift_alarms(params);
+                params.alarms[0] = u16::from(n);
+                return true;
+            }
+        }
+        if core::mem::take(&mut self.warning_gone) && params.alarms[0] != 0 {
+            shift_alarms(params);
+            params.alarms[0] = 0;
+            return true;
+        }
+        false
     }
 
     /// Moves a due fault on as far as the drive's answer allows; whether the buffer changed
     /// (a new diagnosis).
     pub fn service(&mut self, drive: &mut impl Drive, params: &mut Parameters) -> bool {
         let Some(at) = self.due else {
+            if core::mem::take(&mut self.reset_due) && params.fault_codes[0] != 0 {
+                // Reset: the fault goes to the history, sub-index 1 reads 0 (no fault).
+                self.shift(params);
+                params.fault_codes[0] = 0;
+                params.fault_numbers[0] = 0;
+                return true;
+            }
             return false;
         };
         let read = self
@@ -64,8 +132,19 @@ impl FaultBuffer {
         self.push(at, DRIVECOM_SERIAL_INTERFACE, u16::from(link_error), params);
     }
 
-    /// A new fault at sub-index 1, the older ones one place on.
+    /// A new fault at sub-index 1; a fault still there (not reset) moves on first.
     fn push(&mut self, at: Instant, code: u16, number: u16, params: &mut Parameters) {
+        if params.fault_codes[0] != 0 {
+            self.shift(params);
+        }
+        params.fault_codes[0] = code;
+        params.fault_numbers[0] = number;
+        params.fault_count = params.fault_count.saturating_add(1);
+        self.at[0] = Some(at);
+    }
+
+    /// The buffer one place on: sub-index 1 to 9, .., 33 to 41 (41 is dropped).
+    fn shift(&mut self, params: &mut Parameters) {
         for slot in (1..FAULT_SUBINDICES.len()).rev() {
             let (to, from) = (
                 usize::from(FAULT_SUBINDICES[slot]) - 1,
@@ -74,25 +153,24 @@ impl FaultBuffer {
             params.fault_codes[to] = params.fault_codes[from];
             params.fault_numbers[to] = params.fault_numbers[from];
         }
-        params.fault_codes[0] = code;
-        params.fault_numbers[0] = number;
-        params.fault_count = params.fault_count.saturating_add(1);
         // A new array, not `copy_within`: an overlapping copy links a 1.5 KiB memmove into
         // the production board's flash.
         let older = self.at;
-        self.at = core::array::from_fn(|i| if i == 0 { Some(at) } else { older[i - 1] });
+        self.at = core::array::from_fn(|i| if i == 0 { None } else { older[i - 1] });
     }
 
     /// 948: the seconds since each fault, at `now`.
     pub fn update_times(&self, now: Instant, params: &mut Parameters) {
         for (at, sub) in self.at.iter().zip(FAULT_SUBINDICES) {
-            if let Some(at) = at {
-                // 948 counts to 65535 s. In 32 bits (1_000_000 = 64 x 15_625): a 64-bit
-                // division is a kilobyte of the production board's flash.
-                let micros = (now.micros() - at.micros()).min(u64::from(u16::MAX) * 1_000_000);
-                let seconds = ((micros >> 6) as u32) / 15_625;
-                params.fault_times[usize::from(sub) - 1] = seconds as u16;
-            }
+            params.fault_times[usize::from(sub) - 1] = match at {
+                Some(at) => {
+                    // 948 counts to 65535 s. In 32 bits (1_000_000 = 64 x 15_625): a 64-bit
+                    // division is a kilobyte of the production board's flash.
+                    let micros = (now.micros() - at.micros()).min(u64::from(u16::MAX) * 1_000_000);
+                    (((micros >> 6) as u32) / 15_625) as u16
+                }
+                None => 0,
+            };
         }
     }
 }

@@ -201,8 +201,8 @@ pub struct Parameters {
     pub fault_times: [u16; FAULT_ARRAY_LEN],
     /// 952: faults that happened; writing 0 clears it.
     pub fault_count: u16,
-    /// 953-960: the current alarm and the seven before it.
-    pub alarms: [u16; 8],
+    /// 953-957: the current alarm (AL.xxx, 0 for none) and the four before it.
+    pub alarms: [u16; crate::faults::ALARMS],
     /// 961: hardware configuration.
     pub hardware: [u8; 4],
     /// 963: the detected baud rate (0 = 12M .. 9 = 9.6k, 255 invalid).
@@ -249,7 +249,7 @@ impl Default for Parameters {
             fault_numbers: [0; FAULT_ARRAY_LEN],
             fault_times: [0; FAULT_ARRAY_LEN],
             fault_count: 0,
-            alarms: [0; 8],
+            alarms: [0; crate::faults::ALARMS],
             hardware: [0; 4],
             baud_code: 255,
             ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
@@ -385,7 +385,8 @@ const TABLE: &[Row] = &[
     // 952: the fault count; only 0 may be written (it clears the count): anything else is
     // error 6, "set not allowed (reset only)" (seed 004's error list, line 875).
     Row { first: 952, last: 952, slot: |p, _| Slot::Word(&mut p.fault_count), rights: Rights::ReadWrite, check: |_, _, _, v| if v == 0 { Ok(()) } else { Err(ErrorNumber::ResetOnly) } },
-    Row { first: 953, last: 960, slot: |p, at| Slot::Word(&mut p.alarms[at]), rights: Rights::Read, check: any_value },
+    // 953-957: the current alarm and the four before it; 958-960 are "不支持" (table 22).
+    Row { first: 953, last: 957, slot: |p, at| Slot::Word(&mut p.alarms[at]), rights: Rights::Read, check: any_value },
     Row { first: 961, last: 961, slot: |p, _| Slot::Octets(&p.hardware), rights: Rights::Read, check: any_value },
     Row { first: 963, last: 963, slot: |p, _| Slot::Word(&mut p.baud_code), rights: Rights::Read, check: any_value },
     Row { first: 964, last: 964, slot: |p, _| Slot::Word(&mut p.ident_number), rights: Rights::Read, check: any_value },

@@ -21,6 +21,9 @@ pub struct MockDrive {
     pub fault: Option<u8>,
     /// Fault resets seen (rising edges of control bit 15).
     pub fault_resets: u32,
+    /// An active warning (AL.xxx): the status word's warning bit, and the fault record when
+    /// there is no fault.
+    pub warning: Option<u8>,
 }
 
 impl MockDrive {
@@ -57,9 +60,11 @@ impl ImmediateDrive for MockDrive {
         Ok(match code.0 {
             OUTPUT_FREQUENCY if self.running() => self.get(SET_FREQUENCY),
             OUTPUT_FREQUENCY => 0,
-            FAULT_RECORD => self
-                .fault
-                .map_or(0, |f| u16::from(FaultRecord::Fault(f).to_byte())),
+            FAULT_RECORD => match (self.fault, self.warning) {
+                (Some(f), _) => u16::from(FaultRecord::Fault(f).to_byte()),
+                (None, Some(w)) => u16::from(FaultRecord::Warning(w).to_byte()),
+                (None, None) => 0,
+            },
             other => self.get(other),
         })
     }
@@ -104,6 +109,9 @@ impl ImmediateDrive for MockDrive {
         if self.fault.is_some() {
             sw |= status::FAULT;
             sw &= !status::READY;
+        }
+        if self.warning.is_some() {
+            sw |= status::WARNING;
         }
         Ok(sw)
     }

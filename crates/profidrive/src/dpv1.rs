@@ -406,12 +406,7 @@ mod tests {
     };
 
     fn value(number: u16, subindex: u16, elements: u8) -> ParamAddress {
-        ParamAddress {
-            attribute: Attribute::Value,
-            elements,
-            number,
-            subindex,
-        }
+        ParamAddress::value(number, subindex, elements)
     }
 
     /// A master's write of the request, the server's steps, and its read of the response.
@@ -496,18 +491,7 @@ mod tests {
     fn seed_004_example_2b_write_two_values_once() {
         let mut b = Bench::new();
         let (v300, v500) = (word(300), word(500));
-        let values = [
-            Values {
-                format: Format::Word,
-                count: 1,
-                bytes: &v300,
-            },
-            Values {
-                format: Format::Word,
-                count: 1,
-                bytes: &v500,
-            },
-        ];
+        let values = [Values::word(&v300), Values::word(&v500)];
         let addresses = [value(4, 0xB2, 0), value(4, 0xB3, 0)];
         let response = b.request(RequestId::Change, &addresses, &values);
         assert_eq!(response, [0x21, 0x02, 1, 2]);
@@ -530,11 +514,7 @@ mod tests {
         assert_eq!(response, [0x21, 0x01, 1, 1, 0x42, 1, 0, 8]);
         for (number, v) in [(915u16, 0x4B6u16), (916, 0x4B5)] {
             let bytes = word(v);
-            let values = [Values {
-                format: Format::Word,
-                count: 1,
-                bytes: &bytes,
-            }];
+            let values = [Values::word(&bytes)];
             let response = b.request(RequestId::Change, &[value(number, 3, 1)], &values);
             assert_eq!(response, [0x21, 0x02, 1, 1], "{number}");
         }
@@ -605,21 +585,13 @@ mod tests {
                 value(918, 0, 0),
             ],
             &[
-                Values {
-                    format: Format::Word,
-                    count: 1,
-                    bytes: &v2,
-                },
+                Values::word(&v2),
                 Values {
                     format: Format::Word,
                     count: 1,
                     bytes: &word(0),
                 },
-                Values {
-                    format: Format::Word,
-                    count: 1,
-                    bytes: &v5,
-                },
+                Values::word(&v5),
                 Values {
                     format: Format::Word,
                     count: 0,

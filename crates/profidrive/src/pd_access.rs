@@ -92,6 +92,16 @@ pub struct ParamAddress {
 }
 
 impl ParamAddress {
+    /// The value of parameter `number` from `subindex`, `elements` of them (0: a simple one).
+    pub const fn value(number: u16, subindex: u16, elements: u8) -> ParamAddress {
+        ParamAddress {
+            attribute: Attribute::Value,
+            elements,
+            number,
+            subindex,
+        }
+    }
+
     fn parse(b: &[u8]) -> ParamAddress {
         ParamAddress {
             attribute: Attribute::from(b[0]),
@@ -123,6 +133,15 @@ pub struct Values<'a> {
 }
 
 impl<'a> Values<'a> {
+    /// One word value.
+    pub const fn word(bytes: &'a [u8; 2]) -> Values<'a> {
+        Values {
+            format: Format::Word,
+            count: 1,
+            bytes,
+        }
+    }
+
     /// Value `i` as a number (words and bytes big-endian).
     pub fn get(&self, i: usize) -> Option<u32> {
         let size = self.format.value_size()?;
@@ -412,12 +431,7 @@ mod tests {
     use super::*;
 
     fn address(number: u16, subindex: u16, elements: u8) -> ParamAddress {
-        ParamAddress {
-            attribute: Attribute::Value,
-            elements,
-            number,
-            subindex,
-        }
+        ParamAddress::value(number, subindex, elements)
     }
 
     fn build(id: RequestId, addresses: &[ParamAddress], values: &[Values]) -> Vec<u8> {
@@ -460,18 +474,7 @@ mod tests {
     fn seed_004_example_2b_write_two_values() {
         let v300 = 300u16.to_be_bytes();
         let v500 = 500u16.to_be_bytes();
-        let values = [
-            Values {
-                format: Format::Word,
-                count: 1,
-                bytes: &v300,
-            },
-            Values {
-                format: Format::Word,
-                count: 1,
-                bytes: &v500,
-            },
-        ];
+        let values = [Values::word(&v300), Values::word(&v500)];
         let pdu = build(
             RequestId::Change,
             &[address(4, 0xB2, 0), address(4, 0xB3, 0)],
@@ -494,11 +497,7 @@ mod tests {
         assert_eq!(&pdu[4..], [0x10, 0, 0x03, 0x96, 0, 0]);
         for (number, value) in [(0x393u16, 0x4B6u16), (0x394, 0x4B5)] {
             let v = value.to_be_bytes();
-            let values = [Values {
-                format: Format::Word,
-                count: 1,
-                bytes: &v,
-            }];
+            let values = [Values::word(&v)];
             let pdu = build(RequestId::Change, &[address(number, 3, 1)], &values);
             let request = ParamRequestPdu::parse(&pdu).unwrap();
             assert_eq!(request.address(0).number, number);

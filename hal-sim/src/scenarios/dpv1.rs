@@ -24,12 +24,7 @@ use std::io;
 const TICKS_PER_US: u64 = (crate::cosim::CLOCK_HZ / 1_000_000) as u64;
 
 fn value(number: u16, subindex: u16) -> ParamAddress {
-    ParamAddress {
-        attribute: Attribute::Value,
-        elements: 0,
-        number,
-        subindex,
-    }
+    ParamAddress::value(number, subindex, 0)
 }
 
 /// Drive parameter xx.yy as seed 004 addresses it: xxyy's high byte and low byte.
@@ -106,11 +101,7 @@ fn request<F: Firmware>(
 }
 
 fn word_values(v: &[u8; 2]) -> Values<'_> {
-    Values {
-        format: Format::Word,
-        count: 1,
-        bytes: v,
-    }
+    Values::word(v)
 }
 
 /// `dpv1-profidrive`: PPO3 at 1.5 Mbit/s, PPO4 at 12 Mbit/s.

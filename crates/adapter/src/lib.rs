@@ -528,14 +528,15 @@ impl<A: Application + Background> Adapter<A> {
                 match fdl::Repr::parse_bytes(bytes) {
                     Ok((request, _)) => {
                         new_outputs = self.is_new_outputs(&request);
-                        acyclic = is_msac1_request(&request) || is_global_control(&request);
+                        let msac1 = is_msac1_request(&request);
+                        acyclic = msac1 || is_global_control(&request);
                         decided = !new_outputs && !acyclic;
                         if baud != self.rate_told {
                             self.rate_told = baud;
                             self.slave.app_mut().inner.rate(baud);
                         }
                         self.slave.process_fresh(now, &request);
-                        if is_msac1_request(&request) {
+                        if msac1 {
                             // The response the master's next poll gets from the transceiver.
                             if let Some(bytes) = self.slave.msac1_response() {
                                 out(Out::Write(FromAdapter::Msac1 {

@@ -20,7 +20,7 @@ use crate::pd_access::{
     Attribute, Format, ParamRequestPdu, RequestId, Writer, MAX_LEN, MAX_PARAMETERS,
     PARAMETER_REQUEST_INDEX,
 };
-use crate::pd_params::{drive_parameter, link_error, Element, ErrorNumber, Parameters};
+use crate::pd_params::{drive_access_for, link_error, Element, ErrorNumber, Parameters};
 use dp_consts::dpv1::error;
 use dp_slave::msac1::{Address, Request, Response};
 
@@ -58,11 +58,17 @@ pub struct Dpv1Server {
     request: [u8; MAX_LEN],
     request_len: usize,
     state: State,
-    response: [u8; MAX_LEN],
-    response_len: usize,
+    answer: Answer,
+    pub figures: Dpv1Figures,
+}
+
+/// The response being built, apart from the request it answers (which it reads while it
+/// writes here).
+struct Answer {
+    bytes: [u8; MAX_LEN],
+    len: usize,
     /// A change request's outcome per parameter (`None`: written).
     outcomes: [Option<ErrorNumber>; MAX_PARAMETERS],
-    pub figures: Dpv1Figures,
 }
 
 impl Default for Dpv1Server {
@@ -71,9 +77,11 @@ impl Default for Dpv1Server {
             request: [0; MAX_LEN],
             request_len: 0,
             state: State::Idle,
-            response: [0; MAX_LEN],
-            response_len: 0,
-            outcomes: [None; MAX_PARAMETERS],
+            answer: Answer {
+                bytes: [0; MAX_LEN],
+                len: 0,
+                outcomes: [None; MAX_PARAMETERS],
+            },
             figures: Dpv1Figures::default(),
         }
     }
@@ -108,12 +116,12 @@ impl Dpv1Server {
             },
             Request::Read { at, length } => match self.read(at) {
                 Ok(()) => {
-                    let len = self.response_len.min(usize::from(length));
+                    let len = self.answer.len.min(usize::from(length));
                     self.state = State::Idle;
                     self.figures.responses += 1;
                     Response::Read {
                         at,
-                        data: &self.response[..len],
+                        data: &self.answer.bytes[..len],
                     }
                 }
                 Err(code) => Response::error(false, code),
@@ -135,8 +143,8 @@ impl Dpv1Server {
         }
         self.request[..data.len()].copy_from_slice(data);
         self.request_len = data.len();
-        self.response_len = 0;
-        self.outcomes = [None; MAX_PARAMETERS];
+        self.answer.len = 0;
+        self.answer.outcomes = [None; MAX_PARAMETERS];
         self.state = State::Running {
             next: 0,
             drive: None,
@@ -167,34 +175,36 @@ impl Dpv1Server {
         else {
             return false;
         };
-        let request_bytes = self.request;
-        let bytes = &request_bytes[..self.request_len];
+        let bytes = &self.request[..self.request_len];
         let pdu = match ParamRequestPdu::parse(bytes) {
             Ok(pdu) => pdu,
             Err(e) => {
                 let (reference, id, axis) =
                     ParamRequestPdu::header(bytes).unwrap_or((0, RequestId::Read, 0));
-                let mut w = Writer::new(&mut self.response);
+                let mut w = Writer::new(&mut self.answer.bytes);
                 w.header(reference, u8::from(id) | 0x80, axis, 1);
                 let _ = w.error(e.error_number());
-                let len = w.len();
-                self.finish(len);
+                self.answer.len = w.len();
+                self.state = State::Done;
                 return true;
             }
         };
-        if next == 0 && drive_request.is_none() && self.response_len == 0 {
-            let mut w = Writer::new(&mut self.response);
+        if next == 0 && drive_request.is_none() && self.answer.len == 0 {
+            let mut w = Writer::new(&mut self.answer.bytes);
             w.header(pdu.reference, pdu.id.into(), pdu.axis, pdu.count() as u8);
-            self.response_len = w.len();
+            self.answer.len = w.len();
         }
         // One parameter per call: a step of the application's cycle stays short whatever
         // the request holds (a Data_Exchange waits for the step under way).
         if next < pdu.count() {
             let outcome = match pdu.id {
                 RequestId::Read => {
-                    self.read_one(&pdu, next, params, drive, ppo, &mut drive_request)
+                    self.answer
+                        .read_one(&pdu, next, params, drive, ppo, &mut drive_request)
                 }
-                _ => self.change_one(&pdu, next, params, drive, &mut drive_request),
+                _ => self
+                    .answer
+                    .change_one(&pdu, next, params, drive, &mut drive_request),
             };
             let moved = outcome.is_some();
             if moved {
@@ -207,26 +217,27 @@ impl Dpv1Server {
             };
             return moved;
         }
-        if pdu.id == RequestId::Change && self.outcomes[..pdu.count()].iter().any(Option::is_some) {
-            let mut w = Writer::new(&mut self.response);
+        if pdu.id == RequestId::Change
+            && self.answer.outcomes[..pdu.count()]
+                .iter()
+                .any(Option::is_some)
+        {
+            let mut w = Writer::new(&mut self.answer.bytes);
             w.header(pdu.reference, 0x82, pdu.axis, pdu.count() as u8);
-            for outcome in &self.outcomes[..pdu.count()] {
+            for outcome in &self.answer.outcomes[..pdu.count()] {
                 let _ = match outcome {
                     None => w.block(Format::Zero, 0, &[]),
                     Some(e) => w.error(*e),
                 };
             }
-            self.response_len = w.len();
+            self.answer.len = w.len();
         }
-        self.finish(self.response_len);
+        self.state = State::Done;
         true
     }
+}
 
-    fn finish(&mut self, len: usize) {
-        self.response_len = len;
-        self.state = State::Done;
-    }
-
+impl Answer {
     /// Appends parameter `i`'s values (or error) to a read response; `None` while the drive
     /// has not answered.
     fn read_one(
@@ -251,25 +262,22 @@ impl Dpv1Server {
             Attribute::Value if address.number >= 900 => {
                 own_values(params, &address, ppo, &mut words)
             }
-            Attribute::Value => {
-                match drive_code(address.number, address.subindex, address.elements) {
-                    Err(e) => Err(e),
-                    Ok(code) => {
-                        let request =
-                            drive_request.get_or_insert(ParamRequest::new(Access::Read(code)));
-                        match request.poll(drive)? {
-                            Ok(v) => {
-                                words[..2].copy_from_slice(&v.to_be_bytes());
-                                Ok((Format::Word, 1, 2))
-                            }
-                            Err(e) => Err(link_error(e)),
+            Attribute::Value => match drive_access(&address, None) {
+                Err(e) => Err(e),
+                Ok(access) => {
+                    let request = drive_request.get_or_insert(ParamRequest::new(access));
+                    match request.poll(drive)? {
+                        Ok(v) => {
+                            words[..2].copy_from_slice(&v.to_be_bytes());
+                            Ok((Format::Word, 1, 2))
                         }
+                        Err(e) => Err(link_error(e)),
                     }
                 }
-            }
+            },
             Attribute::Unknown(_) => Err(ErrorNumber::IllegalAddress),
         };
-        let mut w = Writer::resume(&mut self.response, self.response_len);
+        let mut w = Writer::resume(&mut self.bytes, self.len);
         let fits = match result {
             Ok((format, count, len)) => w.block(format, count as u8, &words[..len]),
             Err(_) => None,
@@ -279,7 +287,7 @@ impl Dpv1Server {
             let _ = w.error(e);
             w.set_negative();
         }
-        self.response_len = w.len();
+        self.len = w.len();
         Some(())
     }
 
@@ -310,14 +318,10 @@ impl Dpv1Server {
                 let subindex = address.subindex.saturating_add(k as u16);
                 params.write_word(address.number, subindex, value)
             }),
-            (_, _, Some(v)) => match drive_code(address.number, address.subindex, address.elements)
-            {
+            (_, _, Some(v)) => match drive_access(&address, Some(v.get(0).unwrap_or(0) as u16)) {
                 Err(e) => Err(e),
-                Ok(code) if !code.is_writable() => Err(ErrorNumber::ReadOnly),
-                Ok(code) => {
-                    let value = v.get(0).unwrap_or(0) as u16;
-                    let request =
-                        drive_request.get_or_insert(ParamRequest::new(Access::Write(code, value)));
+                Ok(access) => {
+                    let request = drive_request.get_or_insert(ParamRequest::new(access));
                     request.poll(drive)?.map(|_| ()).map_err(link_error)
                 }
             },
@@ -327,23 +331,22 @@ impl Dpv1Server {
     }
 }
 
-/// The drive parameter a DP-V1 address names: the number is xx.yy x 100 with its high byte
-/// in the parameter number and its low byte in the subindex (seed 004, example 1a); one
-/// element only.
-fn drive_code(
-    number: u16,
-    subindex: u16,
-    elements: u8,
-) -> Result<crate::codes::FunctionCode, ErrorNumber> {
+/// The drive access a DP-V1 address asks for (a read, or a write of `write`): the drive
+/// parameter's number is xx.yy x 100 with its high byte in the parameter number and its low
+/// byte in the subindex (seed 004, example 1a); one element only.
+fn drive_access(
+    address: &crate::pd_access::ParamAddress,
+    write: Option<u16>,
+) -> Result<Access, ErrorNumber> {
     // Data sets (number 0, subindex 1-99) belong to ABB drives: this drive has none, and
     // `drive_parameter` finds no group 0.
-    if number > 0xFF || subindex > 0xFF {
+    if address.number > 0xFF || address.subindex > 0xFF {
         return Err(ErrorNumber::IllegalPnu);
     }
-    if elements > 1 {
+    if address.elements > 1 {
         return Err(ErrorNumber::NotAnArray);
     }
-    drive_parameter(number << 8 | subindex).ok_or(ErrorNumber::IllegalPnu)
+    drive_access_for(address.number << 8 | address.subindex, write.map(u32::from))
 }
 
 /// An adapter parameter's values: `count` elements from the subindex, as words, or its

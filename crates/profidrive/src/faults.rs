@@ -7,7 +7,7 @@
 //! for the drive.
 
 use crate::codes::{named, FunctionCode};
-use crate::drive::{Access, Drive, FaultRecord, ParamRequest};
+use crate::drive::{Access, Drive, DriveError, FaultRecord, ParamRequest};
 use crate::pd_params::{Parameters, FAULT_SUBINDICES};
 use dp_slave::Instant;
 
@@ -33,6 +33,20 @@ pub struct FaultBuffer {
 
 /// The alarms 953-957 hold (seed 004 table 22: 958-960 "不支持").
 pub const ALARMS: usize = 5;
+
+/// The drive's fault record (DE.00), read with `read` (started on the first call); `None`
+/// until the drive answered.
+fn poll_record(
+    read: &mut Option<ParamRequest>,
+    drive: &mut impl Drive,
+) -> Option<Result<FaultRecord, DriveError>> {
+    let request = read.get_or_insert(ParamRequest::new(Access::Read(FunctionCode(
+        named::FAULT_RECORD,
+    ))));
+    let result = request.poll(drive)?;
+    *read = None;
+    Some(result.map(|r| FaultRecord::from_byte(r as u8)))
+}
 
 /// 953-957 one place on (957 is dropped). Element by element: an overlapping copy links a
 /// memmove into the production board's flash.
@@ -67,17 +81,11 @@ impl FaultBuffer {
     /// before it. Whether the alarms changed.
     pub fn service_warnings(&mut self, drive: &mut impl Drive, params: &mut Parameters) -> bool {
         if self.warning_due {
-            let read = self
-                .warning_read
-                .get_or_insert(ParamRequest::new(Access::Read(FunctionCode(
-                    named::FAULT_RECORD,
-                ))));
-            let Some(record) = read.poll(drive) else {
+            let Some(record) = poll_record(&mut self.warning_read, drive) else {
                 return false;
             };
-            self.warning_read = None;
             self.warning_due = false;
-            if let Ok(FaultRecord::Warning(n)) = record.map(|r| FaultRecord::from_byte(r as u8)) {
+            if let Ok(FaultRecord::Warning(n)) = record {
                 shift_alarms(params);
                 params.alarms[0] = u16::from(n);
                 return true;
@@ -104,17 +112,11 @@ impl FaultBuffer {
             }
             return false;
         };
-        let read = self
-            .read
-            .get_or_insert(ParamRequest::new(Access::Read(FunctionCode(
-                named::FAULT_RECORD,
-            ))));
-        let Some(record) = read.poll(drive) else {
+        let Some(record) = poll_record(&mut self.read, drive) else {
             return false;
         };
-        self.read = None;
         self.due = None;
-        let number = match record.map(|r| FaultRecord::from_byte(r as u8)) {
+        let number = match record {
             Ok(FaultRecord::Fault(n)) => u16::from(n),
             _ => 0,
         };

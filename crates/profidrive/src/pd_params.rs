@@ -641,22 +641,28 @@ fn drive_access(request: &Frame) -> Result<Frame, Access> {
     use RequestLabel as Rq;
     let err = |e: ErrorNumber| Ok(request.refuse(e));
     let number = (request.pnu << 8) | u16::from(request.index);
-    let Some(code) = drive_parameter(number) else {
-        return err(ErrorNumber::IllegalPnu);
-    };
-    match request.request_label() {
-        Rq::ReadArray | Rq::Read => Err(Access::Read(code)),
+    let write = match request.request_label() {
+        Rq::ReadArray | Rq::Read => None,
         Rq::WriteArrayWord | Rq::WriteWord | Rq::WriteDword | Rq::WriteArrayDword => {
-            if !code.is_writable() {
-                return err(ErrorNumber::ReadOnly);
-            }
-            // The drive's parameters are words: a double word beyond 16 bits is out of range.
-            if request.value > u32::from(u16::MAX) {
-                return err(ErrorNumber::OutOfRange);
-            }
-            Err(Access::Write(code, request.value as u16))
+            Some(request.value)
         }
-        _ => err(ErrorNumber::UnsupportedRequest),
+        _ if drive_parameter(number).is_none() => return err(ErrorNumber::IllegalPnu),
+        _ => return err(ErrorNumber::UnsupportedRequest),
+    };
+    drive_access_for(number, write).map_or_else(err, Err)
+}
+
+/// What a parameter channel's request for drive parameter `number` (xxyy) asks of the drive:
+/// a read, or a write of `write`; both channels (PKW and DP-V1) come through here.
+pub(crate) fn drive_access_for(number: u16, write: Option<u32>) -> Result<Access, ErrorNumber> {
+    let code = drive_parameter(number).ok_or(ErrorNumber::IllegalPnu)?;
+    match write {
+        None => Ok(Access::Read(code)),
+        Some(_) if !code.is_writable() => Err(ErrorNumber::ReadOnly),
+        // The drive's parameters are words: a double word beyond 16 bits is out of range.
+        Some(value) => u16::try_from(value)
+            .map(|v| Access::Write(code, v))
+            .map_err(|_| ErrorNumber::OutOfRange),
     }
 }
 

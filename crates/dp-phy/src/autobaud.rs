@@ -67,6 +67,8 @@ pub struct AutoBaudQ {
     pub min_width: u32,
     /// Rate of the shortest pulse (index into `Baud::ALL`), once one matches.
     pub candidate: Option<u8>,
+    /// Tick of the decision (the candidate's stop-bit middle) or of giving up without one.
+    pub deadline: Tick,
 }
 
 pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
@@ -77,6 +79,7 @@ pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
     n_edges: 0,
     min_width: u32::MAX,
     candidate: None,
+    deadline: Tick::MAX,
 };
 
 /// Per-rate constants, computed once from the sample clock.
@@ -100,6 +103,8 @@ pub struct AutoBaud {
     windows: [RateWindow; 10],
     /// Give up on a measurement after this many clocks without a decision.
     give_up_at: u32,
+    /// The shortest TSYN of all rates (the fastest's): a fall after less idle starts nothing.
+    min_tsyn: Tick,
 }
 
 impl AutoBaud {
@@ -130,10 +135,17 @@ impl AutoBaud {
             }
         });
         let give_up_at = windows[0].decide_at + windows[0].hi;
+        let min_tsyn = windows.iter().map(|w| w.tsyn).min().unwrap_or(0);
         AutoBaud {
             windows,
             give_up_at,
+            min_tsyn,
         }
+    }
+
+    /// The shortest idle after which a fall starts a measurement.
+    pub fn min_tsyn(&self) -> Tick {
+        self.min_tsyn
     }
 
     /// Idle clocks that make TSYN at `baud`.
@@ -148,25 +160,32 @@ impl AutoBaud {
             .map(|i| i as u8)
     }
 
-    /// Next state at `now`; `idle` is how long the line has been idle (clocks).
+    /// One clock at `now`; `idle` is how long the line has been idle (clocks). Updates the
+    /// registers in place: the search runs on every clock beside the receiver, and copying its
+    /// 60 bytes of registers on each one halved the model's speed.
     #[inline(always)]
-    pub fn next(
+    pub fn clock(
         &self,
         now: Tick,
         idle: Tick,
         fell: bool,
         rose: bool,
-        q: &AutoBaudQ,
-    ) -> (Option<Result<Detection, Reject>>, AutoBaudQ) {
-        let mut d = *q;
+        q: &mut AutoBaudQ,
+    ) -> Option<Result<Detection, Reject>> {
+        if !(fell || rose) && now < q.deadline {
+            return None;
+        }
         if !q.measuring {
+            // Not measuring: the deadline is Tick::MAX, so this is an edge. Every start
+            // delimiter comes after TSYN of idle, at least the fastest rate's: a fall after
+            // less is not looked at (inside a telegram at a fast rate, none is).
             if fell {
-                d = AUTOBAUD_RESET;
-                d.measuring = true;
-                d.t0 = now;
-                d.idle_before = idle;
+                if idle < self.min_tsyn {
+                    return Some(Err(Reject::NoSync));
+                }
+                self.start(now, idle, q);
             }
-            return (None, d);
+            return None;
         }
         let rel = (now - q.t0).min(u32::MAX as u64) as u32;
         if fell || rose {
@@ -175,29 +194,57 @@ impl AutoBaud {
             } else {
                 q.edges[q.n_edges as usize - 1]
             };
-            if q.n_edges as usize == MAX_EDGES {
-                return reject(Reject::Noise);
+            // In SD1-SD4 no high run is longer than the time from the start edge to it (SD4's
+            // three 1s after three 0s come closest). A fall after a high run more than twice
+            // that long cannot be inside the same delimiter: it may be the start of the next
+            // one, so it starts a new measurement now instead of the search waiting out one
+            // that cannot succeed (what lets a master's first telegram at a new rate through).
+            if fell && q.n_edges > 0 && rel - last > 2 * last && idle >= self.min_tsyn {
+                self.start(now, idle, q);
+                return None;
             }
-            d.edges[q.n_edges as usize] = rel;
-            d.n_edges += 1;
+            if q.n_edges as usize == MAX_EDGES {
+                return reject(Reject::Noise, q);
+            }
             let width = rel - last;
+            // The first pulse of a start delimiter is 2 to 5 of its bits and the idle before
+            // it at least 32.5: a first pulse longer than a quarter of that idle cannot be the
+            // start of one that has TSYN before it (what frees the search at once inside a
+            // telegram at the locked rate).
+            if q.n_edges == 0 && 4 * width as Tick > q.idle_before {
+                return reject(Reject::NoSync, q);
+            }
+            q.edges[q.n_edges as usize] = rel;
+            q.n_edges += 1;
             if width < q.min_width {
-                d.min_width = width;
+                q.min_width = width;
                 if width < self.windows[9].lo {
-                    return reject(Reject::Noise);
+                    return reject(Reject::Noise, q);
                 }
                 if let Some(c) = self.classify(width) {
-                    d.candidate = Some(c);
+                    q.candidate = Some(c);
+                    q.deadline = q.t0 + self.windows[c as usize].decide_at as Tick;
                 }
             }
         }
-        match d.candidate {
+        match q.candidate {
             Some(c) if rel >= self.windows[c as usize].decide_at => {
-                (Some(self.decide(c, &d)), AUTOBAUD_RESET)
+                let out = self.decide(c, q);
+                *q = AUTOBAUD_RESET;
+                Some(out)
             }
-            None if rel >= self.give_up_at => reject(Reject::NoRate),
-            _ => (None, d),
+            None if rel >= self.give_up_at => reject(Reject::NoRate, q),
+            _ => None,
         }
+    }
+
+    /// A new measurement from the falling edge at `now`.
+    fn start(&self, now: Tick, idle: Tick, q: &mut AutoBaudQ) {
+        *q = AUTOBAUD_RESET;
+        q.measuring = true;
+        q.t0 = now;
+        q.idle_before = idle;
+        q.deadline = now + self.give_up_at as Tick;
     }
 
     fn decide(&self, c: u8, q: &AutoBaudQ) -> Result<Detection, Reject> {
@@ -247,19 +294,13 @@ impl AutoBaud {
 
     /// Ticks with a constant line before the search does more than count.
     pub fn quiet_for(&self, now: Tick, q: &AutoBaudQ) -> Tick {
-        if !q.measuring {
-            return Tick::MAX;
-        }
-        let at = match q.candidate {
-            Some(c) => self.windows[c as usize].decide_at,
-            None => self.give_up_at,
-        };
-        (q.t0 + at as u64).saturating_sub(now + 1)
+        q.deadline.saturating_sub(now + 1)
     }
 }
 
-fn reject(why: Reject) -> (Option<Result<Detection, Reject>>, AutoBaudQ) {
-    (Some(Err(why)), AUTOBAUD_RESET)
+fn reject(why: Reject, q: &mut AutoBaudQ) -> Option<Result<Detection, Reject>> {
+    *q = AUTOBAUD_RESET;
+    Some(Err(why))
 }
 
 #[cfg(test)]
@@ -285,9 +326,8 @@ mod tests {
         let mut prev = true;
         for now in 0..t0 + t.clocks_for(13, 1) {
             let l = level_at(now);
-            let (out, d) = ab.next(now, now.min(t0), prev && !l, !prev && l, &q);
+            let out = ab.clock(now, now.min(t0), prev && !l, !prev && l, &mut q);
             prev = l;
-            q = d;
             if out.is_some() {
                 return out;
             }

@@ -23,6 +23,8 @@ struct Sample {
     baud_state: u8,
     /// Index into `Baud::ALL` (15 while none).
     baud: u8,
+    /// The lock a trial returns to if it fails (15: none).
+    fallback: u8,
 }
 
 /// A signal: its index in `ids`, its width and how to read it from a sample.
@@ -31,7 +33,7 @@ type Field = (usize, u32, fn(&Sample) -> u32);
 /// Writes a VCD file of one transceiver's signals.
 pub struct Tracer<W: Write> {
     vcd: vcd::Writer<W>,
-    ids: [IdCode; 9],
+    ids: [IdCode; 10],
     last: Option<Sample>,
     clock_hz: u64,
 }
@@ -52,6 +54,7 @@ impl<W: Write> Tracer<W> {
             vcd.add_wire(1, "driver_enable")?,
             vcd.add_wire(2, "baud_state")?,
             vcd.add_wire(4, "baud")?,
+            vcd.add_wire(4, "fallback")?,
         ];
         vcd.upscope()?;
         vcd.enddefinitions()?;
@@ -81,6 +84,7 @@ impl<W: Write> Tracer<W> {
             driver_enable: p.driver_enable,
             baud_state: state,
             baud,
+            fallback: p.fallback.map_or(15, |b| b.index() as u8),
         };
         if self.last == Some(s) {
             return Ok(());
@@ -89,7 +93,7 @@ impl<W: Write> Tracer<W> {
         self.vcd.timestamp(ps)?;
         let old = self.last;
         let changed = |f: fn(&Sample) -> u32| old.is_none_or(|o| f(&o) != f(&s));
-        let fields: [Field; 9] = [
+        let fields: [Field; 10] = [
             (0, 1, |s| s.line as u32),
             (1, 1, |s| s.filtered as u32),
             (2, 1, |s| s.rx_active as u32),
@@ -99,6 +103,7 @@ impl<W: Write> Tracer<W> {
             (6, 1, |s| s.driver_enable as u32),
             (7, 2, |s| s.baud_state as u32),
             (8, 4, |s| s.baud as u32),
+            (9, 4, |s| s.fallback as u32),
         ];
         for (i, width, f) in fields {
             if !changed(f) {

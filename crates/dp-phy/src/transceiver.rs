@@ -5,9 +5,15 @@
 //!   and its first character the first of a telegram. A trial becomes **locked** only when that
 //!   telegram (SD1/SD2/SD3/SD4; an SC does not count) arrives complete and error-free; any error
 //!   during the trial returns to searching. Noise can start a trial but never lock.
+//! - The search never stops: while a rate is **locked** it goes on timing pulses through its own
+//!   short filter, beside the receiver. A start delimiter that decodes cleanly at *another* rate
+//!   (every edge on that rate's grid, start, parity and stop bits right, TSYN of idle at that rate
+//!   before it) starts a trial at that rate at once, with the locked rate kept as its fallback:
+//!   the trial's telegram complete and error-free moves the lock (a **relock**); any error in it
+//!   returns to the old lock, its watchdog unchanged. Noise has to forge both to move the lock.
 //! - While **locked**, the baud-control watchdog (ticks of 10 ms) is restarted by every good
 //!   telegram; when it expires (between telegrams: a long one at 9.6k outlasts it) the
-//!   transceiver searches again, so a master that changes its rate is followed.
+//!   transceiver searches again: the last resort, for a master the relock did not catch.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
 //! - A response handed to [`Transceiver::respond`] starts no earlier than min TSDR bit times after
@@ -17,7 +23,7 @@
 //! [`Transceiver::advance`] is the fast mode: it skips spans in which nothing but counters would
 //! change, with outputs identical to ticking every clock.
 
-use crate::autobaud::{AutoBaud, AutoBaudQ, AUTOBAUD_RESET};
+use crate::autobaud::{AutoBaud, AutoBaudQ, Detection, AUTOBAUD_RESET};
 use crate::delimiter::{Delimiter, Delivery, RxTelegram};
 use crate::filter::{self, FilterQ, FILTER_RESET};
 use crate::uart::{RxChar, RxQ, UartRx, UartTx, RX_RESET};
@@ -80,8 +86,14 @@ pub struct Stats {
     pub char_errors: u64,
     /// Characters outside a telegram without TSYN before them.
     pub not_synced: u64,
+    /// Measurements the search rejected while searching (it rejects most characters of a
+    /// telegram while locked, which is not worth counting).
     pub search_rejects: u64,
     pub trials: u64,
+    /// The lock moved to another rate on a confirmed trial, without the watchdog.
+    pub relocks: u64,
+    /// Trials started from a lock that failed and returned to it.
+    pub relock_trials_failed: u64,
     pub watchdog_expiries: u64,
 }
 
@@ -94,6 +106,8 @@ pub struct Probe {
     pub measuring: bool,
     pub in_telegram: bool,
     pub driver_enable: bool,
+    /// The lock a trial returns to if it fails.
+    pub fallback: Option<Baud>,
 }
 
 /// The transceiver block.
@@ -107,11 +121,18 @@ pub struct Transceiver {
     rx: Option<UartRx>,
     tx: Option<UartTx>,
     delimiter: Delimiter,
+    /// The receiver's filter, its length set for the rate (runs while a rate is known).
     filter_q: FilterQ,
     filter_len: u8,
     rx_q: RxQ,
+    /// The search's own filter, always [`SEARCH_FILTER_LEN`]: it must see every rate's pulses.
+    search_filter_q: FilterQ,
     search_q: AutoBaudQ,
-    /// The line has been idle (high, no character under way) since this tick.
+    /// The search's filtered line has been high since this tick.
+    line_high_since: Tick,
+    /// During a trial started from a lock: that lock, to return to if the trial fails.
+    fallback: Option<Baud>,
+    /// The receiver's line has been idle (high, no character under way) since this tick.
     quiet_since: Tick,
     /// Idle clocks before the character the receiver is taking in.
     rx_idle_before: Tick,
@@ -140,7 +161,10 @@ impl Transceiver {
             filter_q: FILTER_RESET,
             filter_len: SEARCH_FILTER_LEN,
             rx_q: RX_RESET,
+            search_filter_q: FILTER_RESET,
             search_q: AUTOBAUD_RESET,
+            line_high_since: 0,
+            fallback: None,
             quiet_since: 0,
             rx_idle_before: 0,
             watchdog_at: Tick::MAX,
@@ -158,6 +182,7 @@ impl Transceiver {
         Transceiver {
             now,
             quiet_since: now,
+            line_high_since: now,
             ..Transceiver::new(cfg)
         }
     }
@@ -196,12 +221,17 @@ impl Transceiver {
     /// Internal signals, for waveforms.
     pub fn probe(&self) -> Probe {
         Probe {
-            filtered: self.filter_q.out,
+            filtered: if self.rx.is_some() {
+                self.filter_q.out
+            } else {
+                self.search_filter_q.out
+            },
             rx_active: self.rx_q.active,
             rx_bit: self.rx_q.bit,
             measuring: self.search_q.measuring,
             in_telegram: self.delimiter.inside(),
             driver_enable: self.drive().is_some(),
+            fallback: self.fallback,
         }
     }
 
@@ -254,60 +284,55 @@ impl Transceiver {
     pub fn tick(&mut self, line: bool) -> TickOut {
         let mut out = TickOut::default();
         let now = self.now;
-        let (f, fq) = filter::next(line, self.filter_len, &self.filter_q);
-        self.filter_q = fq;
-        let echo = self.drive().is_some();
+        let (sf, sfq) = filter::next(line, SEARCH_FILTER_LEN, &self.search_filter_q);
+        self.search_filter_q = sfq;
+        let det = self.search.clock(
+            now,
+            now - self.line_high_since,
+            sf.fell,
+            sf.rose,
+            &mut self.search_q,
+        );
+        if !sf.level {
+            self.line_high_since = now + 1;
+        }
+        let switched = match det {
+            Some(Ok(d)) => self.on_detection(&d, &mut out),
+            Some(Err(_)) => {
+                if self.rx.is_none() {
+                    self.stats.search_rejects += 1;
+                }
+                false
+            }
+            None => false,
+        };
 
-        match self.rx {
-            None => {
-                let (det, sq) = self
-                    .search
-                    .next(now, self.idle(), f.fell, f.rose, &self.search_q);
-                self.search_q = sq;
+        if let (Some(rx), false) = (self.rx, switched) {
+            let (f, fq) = filter::next(line, self.filter_len, &self.filter_q);
+            self.filter_q = fq;
+            let echo = self.drive().is_some();
+            let (c, rq) = rx.next(now, f.level, f.fell, f.fell || f.rose, &self.rx_q);
+            if rq.active && !self.rx_q.active {
+                self.rx_idle_before = self.idle();
+            }
+            self.rx_q = rq;
+            if let Some(c) = c {
+                self.quiet_since = c.end;
+                if !echo {
+                    self.on_char(&c, self.rx_idle_before, &mut out);
+                }
+            } else if !rq.active {
                 if !f.level {
                     self.quiet_since = now + 1;
                 }
-                match det {
-                    Some(Ok(d)) => {
-                        self.start_trial(d.baud, &mut out);
-                        self.quiet_since = d.end;
-                        let c = RxChar {
-                            byte: d.byte,
-                            error: None,
-                            start: d.start,
-                            end: d.end,
-                        };
-                        // The search has checked TSYN before this character already.
-                        self.on_char(&c, Tick::MAX, &mut out);
-                    }
-                    Some(Err(_)) => self.stats.search_rejects += 1,
-                    None => {}
-                }
+                let d = self.delimiter.on_idle(self.idle(), now);
+                self.on_delivery(d, &mut out);
             }
-            Some(rx) => {
-                let (c, rq) = rx.next(now, f.level, f.fell, f.fell || f.rose, &self.rx_q);
-                if rq.active && !self.rx_q.active {
-                    self.rx_idle_before = self.idle();
-                }
-                self.rx_q = rq;
-                if let Some(c) = c {
-                    self.quiet_since = c.end;
-                    if !echo {
-                        self.on_char(&c, self.rx_idle_before, &mut out);
-                    }
-                } else if !rq.active {
-                    if !f.level {
-                        self.quiet_since = now + 1;
-                    }
-                    let d = self.delimiter.on_idle(self.idle(), now);
-                    self.on_delivery(d, &mut out);
-                }
-                // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
-                // the watchdog, so it expires only between telegrams.
-                if now >= self.watchdog_at && !self.delimiter.inside() {
-                    self.stats.watchdog_expiries += 1;
-                    self.search_again(&mut out);
-                }
+            // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
+            // the watchdog, so it expires only between telegrams.
+            if now >= self.watchdog_at && !self.delimiter.inside() {
+                self.stats.watchdog_expiries += 1;
+                self.search_again(&mut out);
             }
         }
 
@@ -324,6 +349,29 @@ impl Transceiver {
         }
         self.now = now + 1;
         out
+    }
+
+    /// A start delimiter the search decoded: a trial at its rate, unless the receiver is on
+    /// that rate already. Returns whether the receiver was replaced.
+    fn on_detection(&mut self, d: &Detection, out: &mut TickOut) -> bool {
+        match self.state {
+            BaudState::Trial(b) | BaudState::Locked(b) if b == d.baud => return false,
+            BaudState::Searching => self.fallback = None,
+            BaudState::Locked(b) => self.fallback = Some(b),
+            // A trial from a lock keeps that lock as its fallback.
+            BaudState::Trial(_) => {}
+        }
+        self.start_trial(d.baud, out);
+        self.quiet_since = d.end;
+        let c = RxChar {
+            byte: d.byte,
+            error: None,
+            start: d.start,
+            end: d.end,
+        };
+        // The search has checked TSYN before this character already.
+        self.on_char(&c, Tick::MAX, out);
+        true
     }
 
     fn on_char(&mut self, c: &RxChar, idle_before: Tick, out: &mut TickOut) {
@@ -348,43 +396,67 @@ impl Transceiver {
                         if confirms {
                             self.state = BaudState::Locked(b);
                             out.baud_changed = true;
+                            if self.fallback.take().is_some() {
+                                self.stats.relocks += 1;
+                            }
                         }
                     }
                     self.watchdog_at = self.now + self.watchdog_clocks;
                 } else {
                     self.stats.telegrams_bad += 1;
                     if let BaudState::Trial(_) = self.state {
-                        self.search_again(out);
+                        match self.fallback.take() {
+                            Some(locked) => {
+                                self.stats.relock_trials_failed += 1;
+                                self.use_rate(locked);
+                                self.state = BaudState::Locked(locked);
+                                out.baud_changed = true;
+                            }
+                            None => self.search_again(out),
+                        }
                     }
                 }
             }
         }
     }
 
+    /// A trial at `baud`: the receiver takes over from the search, whose filter it starts from.
+    /// A trial from a lock keeps that lock's watchdog, so that trials that keep failing cannot
+    /// hold a lost rate for ever.
     fn start_trial(&mut self, baud: Baud, out: &mut TickOut) {
-        let timing = BitTiming::new(self.cfg.clock_hz, baud, 0);
         self.stats.trials += 1;
         self.state = BaudState::Trial(baud);
         out.baud_changed = true;
-        self.rx = Some(UartRx::new(timing));
-        self.tx = Some(UartTx::new(timing));
-        self.rx_q = RX_RESET;
-        self.filter_len = filter::len_for(timing.clocks_per_bit());
-        self.delimiter = Delimiter::new(
-            self.search.tsyn_clocks(baud),
-            timing.clocks_for(self.cfg.max_gap_bits as u64, 1),
-        );
-        self.watchdog_at = self.now + self.watchdog_clocks;
+        self.filter_q = self.search_filter_q;
+        self.use_rate(baud);
+        if self.fallback.is_none() {
+            self.watchdog_at = self.now + self.watchdog_clocks;
+        }
     }
 
+    /// Receiver, transmitter and delimiter for `baud`, from idle; a waiting response is dropped.
+    fn use_rate(&mut self, baud: Baud) {
+        let timing = BitTiming::new(self.cfg.clock_hz, baud, 0);
+        self.rx = Some(UartRx::new(timing));
+        self.tx = Some(UartTx::new(timing));
+        self.pending_not_before = None;
+        self.rx_q = RX_RESET;
+        self.filter_len = filter::len_for(timing.clocks_per_bit());
+        // The delimiter keeps the telegram it delivered last: a failed trial's, read after this.
+        self.delimiter.tsyn_clocks = self.search.tsyn_clocks(baud);
+        self.delimiter.gap_clocks = timing.clocks_for(self.cfg.max_gap_bits as u64, 1);
+        self.delimiter.reset();
+    }
+
+    /// Back to searching only: the search, which never stopped, goes on as it is.
     fn search_again(&mut self, out: &mut TickOut) {
         self.state = BaudState::Searching;
         out.baud_changed = true;
+        self.fallback = None;
         self.rx = None;
         self.tx = None;
         self.pending_not_before = None;
         self.rx_q = RX_RESET;
-        self.search_q = AUTOBAUD_RESET;
         self.filter_len = SEARCH_FILTER_LEN;
         self.delimiter.reset();
         self.watchdog_at = Tick::MAX;
@@ -392,21 +464,33 @@ impl Transceiver {
 
     /// Ticks that a constant `line` lets pass with nothing but counters moving.
     pub fn quiet_for(&self, line: bool) -> Tick {
-        // While the glitch filter counts towards an edge, the blocks behind it see its old
-        // output: a constant level, as on a quiet line.
+        // While a filter counts towards an edge, the blocks behind it see its old output: a
+        // constant level, as on a quiet line.
+        let now = self.now;
+        let (mut search_quiet, _) =
+            filter::quiet_for(line, SEARCH_FILTER_LEN, &self.search_filter_q);
+        if search_quiet == 0 {
+            return 0;
+        }
+        if self.search_flip_is_idle_only(line) {
+            search_quiet = Tick::MAX;
+        }
+        let mut quiet = search_quiet.min(self.search.quiet_for(now, &self.search_q));
+        let Some(rx) = &self.rx else {
+            return quiet;
+        };
         let (filter_quiet, level) = filter::quiet_for(line, self.filter_len, &self.filter_q);
         if filter_quiet == 0 {
             return 0;
         }
-        let now = self.now;
-        let mut quiet = match &self.rx {
-            None => self.search.quiet_for(now, &self.search_q),
-            Some(rx) if self.rx_q.active => rx.quiet_for_votes(level, &self.rx_q),
-            Some(_) if self.delimiter.inside() && level => {
-                (self.quiet_since + self.delimiter.gap_clocks + 1).saturating_sub(now)
-            }
-            Some(_) => Tick::MAX,
-        };
+        quiet = quiet.min(filter_quiet);
+        quiet = quiet.min(if self.rx_q.active {
+            rx.quiet_for_votes(level, &self.rx_q)
+        } else if self.delimiter.inside() && level {
+            (self.quiet_since + self.delimiter.gap_clocks + 1).saturating_sub(now)
+        } else {
+            Tick::MAX
+        });
         if !self.delimiter.inside() {
             quiet = quiet.min(self.watchdog_at.saturating_sub(now));
         }
@@ -416,21 +500,44 @@ impl Transceiver {
         if let Some(tx) = &self.tx {
             quiet = quiet.min(tx.quiet_for());
         }
-        quiet.min(filter_quiet)
+        quiet
+    }
+
+    /// Whether the search filter's coming change of output, towards `line`, would change
+    /// nothing but the idle count: with a rate known and nothing measured, a rise, or a fall
+    /// too soon after the last rise to start a measurement. Fast mode then passes through it
+    /// instead of stopping twice on every edge of the locked rate.
+    fn search_flip_is_idle_only(&self, line: bool) -> bool {
+        let q = &self.search_filter_q;
+        if self.rx.is_none() || self.search_q.measuring || q.sync != line || q.out == line {
+            return false;
+        }
+        let flips_at = self.now + u64::from(SEARCH_FILTER_LEN.saturating_sub(q.count));
+        line || flips_at - self.line_high_since < self.search.min_tsyn()
     }
 
     /// Let `ticks` pass that [`quiet_for`](Self::quiet_for) allowed for this `line`.
     fn skip(&mut self, ticks: Tick, line: bool) {
+        let search_level = self.search_filter_q.out;
+        let search_flip =
+            filter::skip_through(line, SEARCH_FILTER_LEN, ticks, &mut self.search_filter_q);
         let level = self.filter_q.out;
-        filter::skip(line, ticks, &mut self.filter_q);
         if let Some(rx) = &self.rx {
+            filter::skip(line, ticks, &mut self.filter_q);
             rx.skip_votes(ticks, level, self.now, &mut self.rx_q);
         }
         self.now += ticks;
         if let Some(tx) = &mut self.tx {
             tx.skip(ticks);
         }
-        if !level && !self.rx_q.active {
+        match search_flip {
+            // Rose on that clock: the clock before it was the last one low.
+            Some(at) if line => self.line_high_since = self.now - ticks + at,
+            Some(_) => self.line_high_since = self.now,
+            None if !search_level => self.line_high_since = self.now,
+            None => {}
+        }
+        if self.rx.is_some() && !level && !self.rx_q.active {
             self.quiet_since = self.now;
         }
     }

@@ -34,7 +34,8 @@ pub fn autodetect<F: Firmware>(
     Ok(Vec::new())
 }
 
-/// The master changes from 1.5 Mbit/s to `to` mid-run; the adapter follows.
+/// The master changes from 1.5 Mbit/s to `to` mid-run; the adapter follows on the new
+/// master's first telegram (issue 17), not when its baud watchdog expires.
 pub fn rate_change<F: Firmware>(
     sim: &mut CoSim<F>,
     c: &mut Checks,
@@ -44,12 +45,27 @@ pub fn rate_change<F: Firmware>(
     sim.start_master(MasterSetup::new(from, SWITCH_ADDRESS));
     let ok = exchange(sim, 20, limit_us(from))?;
     c.check(format!("data exchange at {from}"), ok);
+    // The table's "lost" column is the new master's telegrams before the relock.
+    sim.figures.lost_before_lock = None;
+    let expiries = sim.adapter.stats().watchdog_expiries;
     sim.start_master(MasterSetup::new(to, SWITCH_ADDRESS));
     let ok = exchange(sim, cycles_for(to), limit_us(to))?;
     c.check(format!("data exchange again at {to}"), ok);
     c.check(
         format!("transceiver followed to {to}"),
         sim.figures.locked == Some(to),
+    );
+    let stats = sim.adapter.stats();
+    c.check(
+        format!(
+            "relocked on the first telegram at {to}, not by the baud watchdog (lost {:?}, relocks {}, watchdog expiries {})",
+            sim.figures.lost_before_lock,
+            stats.relocks,
+            stats.watchdog_expiries - expiries
+        ),
+        sim.figures.lost_before_lock == Some(0)
+            && stats.relocks >= 1
+            && stats.watchdog_expiries == expiries,
     );
     Ok(Vec::new())
 }

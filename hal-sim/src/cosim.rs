@@ -581,9 +581,24 @@ impl<F: Firmware> CoSim<F> {
 
     fn baud_changed(&mut self) {
         let state = self.adapter.baud_state();
-        if let (BaudState::Locked(b), false) = (state, self.last_baud_state == state) {
-            self.figures.locked = Some(b);
-            self.event(format!("transceiver: locked at {b}"));
+        let was = self.last_baud_state;
+        match (was, state) {
+            // A trial from the lock that failed: the lock stays where it was.
+            (BaudState::Trial(t), BaudState::Locked(b)) if self.figures.locked == Some(b) => {
+                self.event(format!(
+                    "transceiver: trial at {t} failed, still locked at {b}"
+                ));
+            }
+            (_, BaudState::Locked(b)) if was != state => {
+                self.figures.locked = Some(b);
+                self.event(format!("transceiver: locked at {b}"));
+            }
+            (BaudState::Locked(b), BaudState::Trial(t)) => {
+                self.event(format!(
+                    "transceiver: trial at {t}, the lock at {b} kept until it passes"
+                ));
+            }
+            _ => {}
         }
         if state == BaudState::Searching && self.last_baud_state != BaudState::Searching {
             self.event("transceiver: searching".into());

@@ -231,5 +231,9 @@ pub fn line_noise<F: Firmware>(
     );
     let ok = exchange(sim, 50, limit_us(baud))?;
     c.check("data exchange recovered", ok);
+    c.check(
+        format!("the noise did not move the lock from {baud}"),
+        sim.adapter.stats().relocks == 0 && sim.figures.locked == Some(baud),
+    );
     Ok(Vec::new())
 }

@@ -307,11 +307,11 @@ impl Transceiver {
             None => false,
         };
 
-        if let (Some(rx), false) = (self.rx, switched) {
+        if let (Some(rx), false) = (&self.rx, switched) {
             let (f, fq) = filter::next(line, self.filter_len, &self.filter_q);
+            let (c, rq) = rx.next(now, f.level, f.fell, f.fell || f.rose, &self.rx_q);
             self.filter_q = fq;
             let echo = self.drive().is_some();
-            let (c, rq) = rx.next(now, f.level, f.fell, f.fell || f.rose, &self.rx_q);
             if rq.active && !self.rx_q.active {
                 self.rx_idle_before = self.idle();
             }

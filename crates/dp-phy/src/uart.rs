@@ -102,13 +102,24 @@ pub struct UartRx {
     pub timing: BitTiming,
     /// Majority of three samples (at least 16 clocks per bit) or one at the middle.
     pub vote: bool,
+    /// The sample points in sixteenths of a phase modulo (`point * modulo`), the constants a
+    /// comparator holds: the receiver compares against them on every clock.
+    thresholds: [u64; 3],
 }
 
 impl UartRx {
     pub fn new(timing: BitTiming) -> Self {
+        let vote = timing.clocks_per_bit() >= 16;
+        let m = timing.modulo;
+        let thresholds = if vote {
+            VOTE_POINTS.map(|pt| pt * m)
+        } else {
+            [MID_POINT * m; 3]
+        };
         UartRx {
             timing,
-            vote: timing.clocks_per_bit() >= 16,
+            vote,
+            thresholds,
         }
     }
 
@@ -165,13 +176,13 @@ impl UartRx {
             }
         }
         let mut out = None;
-        let points = self.sample_points();
-        for (i, &pt) in points.iter().enumerate() {
-            let thr = pt * m;
-            if 16 * q.ph < thr && thr <= 16 * p {
+        let points = self.sample_points().len();
+        let (from, to) = (16 * q.ph, 16 * p);
+        for (i, &thr) in self.thresholds[..points].iter().enumerate() {
+            if from < thr && thr <= to {
                 d.votes += level as u8;
-                if i + 1 == points.len() {
-                    let one = d.votes as usize * 2 > points.len();
+                if i + 1 == points {
+                    let one = d.votes as usize * 2 > points;
                     d.votes = 0;
                     d.shift |= (one as u16) << q.bit;
                     if q.bit == 0 && one {
@@ -280,8 +291,50 @@ impl UartRx {
 
     /// Let `ticks` pass at constant `level` that [`quiet_for_votes`](Self::quiet_for_votes)
     /// allowed, from tick `now`: the votes and bit boundaries on the way are those `next` would
-    /// take, one call per event instead of one per clock.
+    /// take. From the first data bit on they are counted in closed form (every sample point
+    /// crossed votes `level`); in the start bit, where a vote can end the character as a false
+    /// start, one `next` per event.
     pub fn skip_votes(&self, ticks: Tick, level: bool, now: Tick, q: &mut RxQ) {
+        if !q.active || ticks == 0 {
+            return;
+        }
+        if q.bit == 0 {
+            return self.skip_votes_stepwise(ticks, level, now, q);
+        }
+        let m = self.timing.modulo;
+        let points = &self.thresholds[..self.sample_points().len()];
+        let n = points.len() as u8;
+        let sampled =
+            |from: u64, to: u64| points.iter().filter(|&&t| from < t && t <= to).count() as u8;
+        let last = points[points.len() - 1];
+        let end = q.ph + ticks * self.timing.inc;
+        let crossed = end / m;
+        let end_ph = end - crossed * m;
+        // The bit under way: its points still ahead, up to the end of the skip or of the bit.
+        let reach = 16 * end.min(m);
+        q.votes += level as u8 * sampled(16 * q.ph, reach);
+        if 16 * q.ph < last && last <= reach {
+            q.shift |= ((q.votes * 2 > n) as u16) << q.bit;
+            q.votes = 0;
+        }
+        if crossed > 0 {
+            // Whole bits between: every point votes `level`.
+            for b in q.bit + 1..q.bit + crossed as u8 {
+                q.shift |= (level as u16) << b;
+            }
+            q.bit += crossed as u8;
+            // The bit the skip ends in, from its start.
+            q.votes = level as u8 * sampled(0, 16 * end_ph);
+            if last <= 16 * end_ph {
+                q.shift |= ((q.votes * 2 > n) as u16) << q.bit;
+                q.votes = 0;
+            }
+        }
+        q.ph = end_ph;
+    }
+
+    /// [`skip_votes`](Self::skip_votes) one `next` per event, as the receiver clocks them.
+    fn skip_votes_stepwise(&self, ticks: Tick, level: bool, now: Tick, q: &mut RxQ) {
         let mut done = 0;
         while done < ticks {
             let quiet = self.quiet_for(level, q).min(ticks - done);
@@ -333,6 +386,12 @@ pub enum CharFault {
 pub struct UartTx {
     pub timing: BitTiming,
     q: TxQ,
+    /// The output, registered at each bit boundary: read on every clock, so not recomputed
+    /// from the character on each one.
+    out: Option<bool>,
+    /// Bit boundaries after the current one that keep the output (bounded look-ahead), worked
+    /// out once per bit when fast mode first asks: `None` until then.
+    run_bits: core::cell::Cell<Option<u32>>,
     buf: Vec<u8>,
     faults: Vec<(u16, CharFault)>,
 }
@@ -342,6 +401,8 @@ impl UartTx {
         UartTx {
             timing,
             q: TX_RESET,
+            out: None,
+            run_bits: core::cell::Cell::new(None),
             buf: Vec::with_capacity(dp_consts::MAX_TELEGRAM_LEN),
             faults: Vec::new(),
         }
@@ -372,6 +433,8 @@ impl UartTx {
             ph: 0,
             sending: idle_bits == 0 && !bytes.is_empty(),
         };
+        self.out = self.drive_at(&self.q);
+        self.run_bits.set(None);
     }
 
     fn fault(&self, index: u16) -> Option<CharFault> {
@@ -384,7 +447,7 @@ impl UartTx {
     /// The level this transmitter puts on the line, or `None` with its driver disabled.
     #[inline(always)]
     pub fn drive(&self) -> Option<bool> {
-        self.drive_at(&self.q)
+        self.out
     }
 
     /// One clock.
@@ -400,6 +463,8 @@ impl UartTx {
         }
         self.q.ph = p - self.timing.modulo;
         self.q = self.after_boundary(&self.q);
+        self.out = self.drive_at(&self.q);
+        self.run_bits.set(None);
     }
 
     /// The output at position `q` (as [`drive`](Self::drive) reads it).
@@ -443,19 +508,23 @@ impl UartTx {
             return Tick::MAX;
         }
         const LOOK_AHEAD_BITS: u32 = 24;
-        let level = self.drive_at(&self.q);
-        let mut q = self.q;
-        // Phase still to accumulate to reach each next boundary.
-        let mut phase = self.timing.modulo - q.ph;
-        for _ in 0..LOOK_AHEAD_BITS {
-            q = self.after_boundary(&q);
-            let busy = q.sending || q.idle_bits > 0;
-            if !busy || self.drive_at(&q) != level {
-                break;
+        let run_bits = self.run_bits.get().unwrap_or_else(|| {
+            let mut q = self.q;
+            let mut run = 0;
+            while run < LOOK_AHEAD_BITS {
+                q = self.after_boundary(&q);
+                let busy = q.sending || q.idle_bits > 0;
+                if !busy || self.drive_at(&q) != self.out {
+                    break;
+                }
+                run += 1;
             }
-            phase += self.timing.modulo;
-        }
-        // The boundary tick itself is left to `tick`.
+            self.run_bits.set(Some(run));
+            run
+        });
+        // Phase still to accumulate to reach the boundary that changes the output; the
+        // boundary tick itself is left to `tick`.
+        let phase = self.timing.modulo - self.q.ph + u64::from(run_bits) * self.timing.modulo;
         phase.div_ceil(self.timing.inc) - 1
     }
 
@@ -471,6 +540,8 @@ impl UartTx {
             }
             self.q.ph = self.q.ph + to_boundary * self.timing.inc - self.timing.modulo;
             self.q = self.after_boundary(&self.q);
+            self.out = self.drive_at(&self.q);
+            self.run_bits.set(None);
             left -= to_boundary;
         }
     }
@@ -485,6 +556,43 @@ mod tests {
     use super::*;
     use crate::timing::DEFAULT_CLOCK_HZ;
     use dp_consts::Baud;
+
+    /// The closed-form skip over votes is the stepwise one, from any bit, phase and vote count
+    /// a receiver can hold, at every rate.
+    #[test]
+    fn skipping_votes_in_closed_form_matches_stepping_them() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for baud in Baud::ALL {
+            let rx = UartRx::new(BitTiming::new(
+                DEFAULT_CLOCK_HZ,
+                baud,
+                rng.gen_range(-5000..5000),
+            ));
+            for _ in 0..2000 {
+                let level = rng.gen();
+                let mut q = RX_RESET;
+                q.active = true;
+                q.bit = rng.gen_range(1..10);
+                q.ph = rng.gen_range(0..rx.timing.modulo);
+                let before = rx.thresholds[..rx.sample_points().len()]
+                    .iter()
+                    .filter(|&&t| t <= 16 * q.ph)
+                    .count() as u8;
+                q.votes = if before == rx.sample_points().len() as u8 {
+                    0
+                } else {
+                    rng.gen_range(0..=before)
+                };
+                q.shift = rng.gen::<u16>() & ((1 << q.bit) - 1);
+                let ticks = rng.gen_range(0..=rx.quiet_for_votes(level, &q));
+                let (mut closed, mut stepped) = (q, q);
+                rx.skip_votes(ticks, level, 1000, &mut closed);
+                rx.skip_votes_stepwise(ticks, level, 1000, &mut stepped);
+                assert_eq!(closed, stepped, "{baud} from {q:?} for {ticks} at {level}");
+            }
+        }
+    }
 
     fn loopback(baud: Baud, tx_ppm: i32, bytes: &[u8], faults: &[(u16, CharFault)]) -> Vec<RxChar> {
         let mut tx = UartTx::new(BitTiming::new(DEFAULT_CLOCK_HZ, baud, tx_ppm));

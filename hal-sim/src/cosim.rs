@@ -286,6 +286,8 @@ pub struct CoSim<F: Firmware> {
     pending: Option<Pending>,
     next_master_poll: Tick,
     last_baud_state: BaudState,
+    /// The transceiver's count of failed trials from a lock, at its last change of state.
+    relock_trials_failed: u64,
 }
 
 fn ticks_from_us(us: u64) -> Tick {
@@ -333,6 +335,7 @@ impl<F: Firmware> CoSim<F> {
             pending: None,
             next_master_poll: 0,
             last_baud_state: BaudState::Searching,
+            relock_trials_failed: 0,
         };
         sim.bridge.boot(0);
         sim.settle()?;
@@ -352,6 +355,7 @@ impl<F: Firmware> CoSim<F> {
         self.adapter = Transceiver::reset_at(self.adapter.config(), self.now);
         self.pending = None;
         self.last_baud_state = BaudState::Searching;
+        self.relock_trials_failed = 0;
         self.settle()
     }
 
@@ -584,7 +588,9 @@ impl<F: Firmware> CoSim<F> {
         let was = self.last_baud_state;
         match (was, state) {
             // A trial from the lock that failed: the lock stays where it was.
-            (BaudState::Trial(t), BaudState::Locked(b)) if self.figures.locked == Some(b) => {
+            (BaudState::Trial(t), BaudState::Locked(b))
+                if self.adapter.stats().relock_trials_failed > self.relock_trials_failed =>
+            {
                 self.event(format!(
                     "transceiver: trial at {t} failed, still locked at {b}"
                 ));
@@ -604,6 +610,7 @@ impl<F: Firmware> CoSim<F> {
             self.event("transceiver: searching".into());
         }
         self.last_baud_state = state;
+        self.relock_trials_failed = self.adapter.stats().relock_trials_failed;
     }
 
     fn response_started(&mut self, request_end: Tick) {

@@ -39,7 +39,7 @@ pub const REWRITE_US: u64 = 10_000;
 pub const LED_ACTIVITY_US: u64 = 200_000;
 
 /// Parameter transactions waiting for the link.
-const QUEUE: usize = 4;
+const QUEUE: usize = 6;
 /// Answers kept until their caller polls for them.
 const ANSWERS: usize = 8;
 

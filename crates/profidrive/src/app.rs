@@ -15,7 +15,7 @@
 
 use crate::codes::FunctionCode;
 use crate::dpv1::Dpv1Server;
-use crate::drive::{Drive, DriveError, PZD1_LINK_ERROR};
+use crate::drive::{Access, Drive, DriveError, ParamRequest, PZD1_LINK_ERROR};
 use crate::faults::FaultBuffer;
 use crate::link_diag::LinkDiagnosis;
 use crate::pd_params::{pzd_target, Frame, Parameters};
@@ -66,8 +66,12 @@ pub struct ProfidriveApp<D> {
     profile: Profile,
     /// The drive's last vendor status word.
     drive_status: u16,
-    /// The drive's reference value that 0x4000 (rated speed) means in the PROFIdrive mode.
+    /// The drive's reference value (0.01 Hz) that 4000h (PROFIdrive) or 20000 (ABB Drives)
+    /// stands for: the user parameter's, or the drive's F0.10; 0 until known (references to
+    /// the drive are 0 and actual values read 0 meanwhile).
     rated_reference: u16,
+    /// The read of F0.10 while the user parameters leave the rated frequency to the drive.
+    rated_read: Option<ParamRequest>,
     /// The PROFIdrive parameters (915 .. 972).
     params: Parameters,
     /// The fault buffer's state (945, 947, 948, 952 live in `params`).
@@ -81,9 +85,6 @@ pub struct ProfidriveApp<D> {
     /// user data, and the user data has no reserved first byte (seed 004's DP-V1 Set_Prm).
     dp_mode_dpv1: bool,
 }
-
-/// 50.00 Hz in the drive's 0.01 Hz: the rated frequency until the drive tells another.
-pub const DEFAULT_RATED_REFERENCE: u16 = 5000;
 
 impl<D: Drive> ProfidriveApp<D> {
     pub fn new(drive: D) -> ProfidriveApp<D> {
@@ -102,7 +103,8 @@ impl<D: Drive> ProfidriveApp<D> {
             diag_changed: false,
             profile: Profile::default(),
             drive_status: 0,
-            rated_reference: DEFAULT_RATED_REFERENCE,
+            rated_reference: 0,
+            rated_read: None,
             params: Parameters::default(),
             faults: FaultBuffer::default(),
             exchanged: None,
@@ -136,9 +138,29 @@ impl<D: Drive> ProfidriveApp<D> {
         &mut self.params
     }
 
-    /// The drive's reference value for the rated speed (PROFIdrive mode scaling).
-    pub fn set_rated_reference(&mut self, rated: u16) {
-        self.rated_reference = rated;
+    /// The drive's reference value for the rated speed (0.01 Hz; 0 while not yet known).
+    pub fn rated_reference(&self) -> u16 {
+        self.rated_reference
+    }
+
+    /// The drive's maximum frequency, read once after the user parameters left the rated
+    /// frequency to the drive, and again until the drive gives a non-zero one.
+    fn read_rated_frequency(&mut self) {
+        let Some(request) = &mut self.rated_read else {
+            return;
+        };
+        match request.poll(&mut self.drive) {
+            None => {}
+            Some(Ok(hz)) if hz > 0 => {
+                self.rated_reference = hz;
+                self.rated_read = None;
+            }
+            Some(_) => {
+                self.rated_read = Some(ParamRequest::new(Access::Read(FunctionCode(
+                    crate::codes::named::MAX_FREQUENCY,
+                ))))
+            }
+        }
     }
 
     /// The PROFIdrive state machine.
@@ -263,6 +285,9 @@ impl<D: Drive> ProfidriveApp<D> {
                 }
             }
         }
+        if self.prm.operation.translates() {
+            self.read_rated_frequency();
+        }
         self.note_link(now, result.err());
     }
 
@@ -384,6 +409,22 @@ impl<D: Drive> Application for ProfidriveApp<D> {
             Ok(prm) => {
                 if prm.operation != self.prm.operation {
                     self.profile = Profile::default();
+                }
+                if prm.rated_frequency != 0 {
+                    self.rated_reference = prm.rated_frequency;
+                    self.rated_read = None;
+                } else {
+                    // Left to the drive: ask it at every parameterisation (its F0.10 may have
+                    // changed), going on with what it said last, never with the master's old
+                    // value.
+                    if self.prm.rated_frequency != 0 {
+                        self.rated_reference = 0;
+                    }
+                    if self.rated_read.is_none() {
+                        self.rated_read = Some(ParamRequest::new(Access::Read(FunctionCode(
+                            crate::codes::named::MAX_FREQUENCY,
+                        ))));
+                    }
                 }
                 self.prm = prm;
                 true
@@ -812,6 +853,79 @@ mod tests {
         Application::fail_safe(&mut app, Instant::from_millis(5), FailSafeReason::ClearData);
         app.service(Instant::from_millis(5));
         assert!(!app.drive().running());
+    }
+
+    /// A PROFIdrive or ABB Drives app on a 60.00 Hz drive (F0.10 = 6000), running forward at
+    /// `reference`; returns the set frequency the drive got and the actual value read back.
+    fn run_60_hz_drive(mode: OperationMode, rated_prm: u16, reference: u16) -> (u16, u16) {
+        use crate::profile::control as pd;
+        let mut prm = UserPrm::DEFAULT;
+        prm.operation = mode;
+        prm.rated_frequency = rated_prm;
+        let mut drive = MockDrive::default();
+        drive.set(crate::codes::named::MAX_FREQUENCY, 6000);
+        let mut app = ProfidriveApp::new(drive);
+        assert!(app.accept_user_prm(&prm.encode()));
+        assert!(app.accept_cfg(Ppo::Ppo3.cfg()).is_some());
+        exchange(&mut app, 1, &ppo3(pd::READY, 0));
+        exchange(&mut app, 2, &ppo3(pd::READY | pd::ON, 0));
+        exchange(&mut app, 3, &ppo3(pd::OPERATE, reference));
+        let inputs = exchange(&mut app, 4, &ppo3(pd::OPERATE, reference));
+        assert!(app.drive().running());
+        (app.drive().get(SET_FREQUENCY), inputs[1])
+    }
+
+    #[test]
+    fn seed_004_line_334_4000h_is_the_rated_frequency_read_from_a_60_hz_drive() {
+        // The user parameter left at 0: the drive's F0.10 (60.00 Hz) is the rated frequency.
+        assert_eq!(
+            run_60_hz_drive(OperationMode::Profidrive, 0, 0x4000),
+            (6000, 0x4000)
+        );
+        assert_eq!(
+            run_60_hz_drive(OperationMode::Profidrive, 0, 0x2000),
+            (3000, 0x2000)
+        );
+        // Given by the master: 50.00 Hz on the same drive.
+        assert_eq!(
+            run_60_hz_drive(OperationMode::Profidrive, 5000, 0x4000),
+            (5000, 0x4000)
+        );
+    }
+
+    #[test]
+    fn seed_004_line_370_20000_is_the_rated_frequency_in_the_abb_drives_mode() {
+        assert_eq!(
+            run_60_hz_drive(OperationMode::AbbDrives, 0, 20_000),
+            (6000, 20_000)
+        );
+        assert_eq!(
+            run_60_hz_drive(OperationMode::AbbDrives, 0, 10_000),
+            (3000, 10_000)
+        );
+        assert_eq!(
+            run_60_hz_drive(OperationMode::AbbDrives, 5000, 20_000),
+            (5000, 20_000)
+        );
+    }
+
+    /// Until the drive has said its maximum frequency, no reference reaches it: never a
+    /// silent 50 Hz.
+    #[test]
+    fn an_unread_rated_frequency_sends_no_reference() {
+        use crate::profile::control as pd;
+        let mut prm = UserPrm::DEFAULT;
+        prm.operation = OperationMode::Profidrive;
+        let mut app = app_with(prm, Ppo::Ppo3);
+        // The drive does not answer the read of F0.10 (nor anything else).
+        app.drive_mut().disconnected = true;
+        for t in 1..4 {
+            exchange(&mut app, t, &ppo3(pd::OPERATE, 0x4000));
+        }
+        assert_eq!(app.rated_reference(), 0);
+        app.drive_mut().disconnected = false;
+        exchange(&mut app, 10, &ppo3(pd::READY, 0x4000));
+        assert_eq!(app.rated_reference(), 5000);
     }
 
     /// Outputs of PPO2 (PKW + 6 PZD) as words.

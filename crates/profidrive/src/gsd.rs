@@ -155,7 +155,20 @@ fn fields() -> impl Iterator<Item = Field> {
         offset: 42 + 2 * i,
         text: None,
     });
-    header.into_iter().chain(fail_safe).chain(rd).chain(wr)
+    let rated = Field {
+        name: "Rated freq 0.01Hz (0 = F0.10)",
+        data_type: "Unsigned16",
+        default: prm.rated_frequency,
+        range: (0, UserPrm::MAX_RATED_FREQUENCY),
+        offset: 60,
+        text: None,
+    };
+    header
+        .into_iter()
+        .chain(fail_safe)
+        .chain(rd)
+        .chain(wr)
+        .chain(core::iter::once(rated))
 }
 
 /// Writes the DP-V0 GSD file.

@@ -13,6 +13,7 @@
 //! | 4 | 20 | fail-safe PZD1 (CW) .. PZD10 | seed 004 bytes 11-30 |
 //! | 24 | 18 | RdPZD2 .. RdPZD10, function codes | seed 000 rows 1-9 |
 //! | 42 | 18 | WrPZD2 .. WrPZD10, function codes | seed 000 rows 10-18 |
+//! | 60 | 2 | rated frequency, 0.01 Hz, for 4000h (PROFIdrive) and 20000 (ABB Drives); 0 = the drive's maximum frequency F0.10, read at link-up | seed 004 lines 334, 370 (issue 18) |
 //!
 //! All words are big-endian, as PROFIBUS sends them. [`UserPrm::parse`] never panics; it
 //! refuses a wrong length, reserved bits, a mode out of range and a mapping to a code of the
@@ -85,6 +86,8 @@ pub enum PrmError {
     ReadMapping(u8),
     /// WrPZD (index 2..10) names no application parameter.
     WriteMapping(u8),
+    /// A rated frequency above [`UserPrm::MAX_RATED_FREQUENCY`].
+    RatedFrequency(u16),
 }
 
 /// The parsed user parameters.
@@ -102,6 +105,11 @@ pub struct UserPrm {
     pub rd_pzd: [FunctionCode; MAX_PZD_WORDS - 1],
     /// What PZD2 .. PZD10 out (from the master) write.
     pub wr_pzd: [FunctionCode; MAX_PZD_WORDS - 1],
+    /// The speed reference 4000h (PROFIdrive) or 20000 (ABB Drives) stands for, in the drive's
+    /// 0.01 Hz. Seed 004 ties those to the drive's 99.08 (rated speed) and 11.05 (EXT REF1
+    /// MAXIMUM); seed 000's drive has neither, so the master sets it, or leaves 0 for the
+    /// drive's maximum frequency (F0.10), read from the drive at link-up.
+    pub rated_frequency: u16,
 }
 
 const fn f(group: u8, index: u8) -> FunctionCode {
@@ -109,12 +117,15 @@ const fn f(group: u8, index: u8) -> FunctionCode {
 }
 
 impl UserPrm {
-    pub const LEN: usize = 60;
+    pub const LEN: usize = 62;
     const HEADER: usize = 1;
     const CUT_OFF: usize = 2;
     const FAIL_SAFE_PZD: usize = 4;
     const RD_PZD: usize = 24;
     const WR_PZD: usize = 42;
+    const RATED: usize = 60;
+    /// 600.00 Hz: the highest rated frequency taken (the scaling stays within 32 bits).
+    pub const MAX_RATED_FREQUENCY: u16 = 60_000;
 
     /// The GSD defaults: fail-safe STOP, use the frame, vendor words (seed 004's default header
     /// 10h), no cut-off, fail-safe values 0, and seed 000's mapping table.
@@ -146,6 +157,7 @@ impl UserPrm {
             f(0xF1, 0x05),
             f(0xF1, 0x06),
         ],
+        rated_frequency: 0,
     };
 
     /// The user data of seed 004's DP-V1 Set_Prm: the same fields, without the reserved first
@@ -185,11 +197,16 @@ impl UserPrm {
             2 => OperationMode::AbbDrives,
             other => return Err(PrmError::OperationMode(other)),
         };
+        let rated_frequency = word(Self::RATED);
+        if rated_frequency > Self::MAX_RATED_FREQUENCY {
+            return Err(PrmError::RatedFrequency(rated_frequency));
+        }
         let mut prm = UserPrm {
             fail_safe,
             control_zero,
             operation,
             cut_off_ms: word(Self::CUT_OFF),
+            rated_frequency,
             ..UserPrm::DEFAULT
         };
         for (i, v) in prm.fail_safe_pzd.iter_mut().enumerate() {
@@ -216,6 +233,7 @@ impl UserPrm {
         out[Self::HEADER] =
             self.fail_safe as u8 | (self.control_zero as u8) << 2 | (self.operation as u8) << 4;
         out[Self::CUT_OFF..Self::CUT_OFF + 2].copy_from_slice(&self.cut_off_ms.to_be_bytes());
+        out[Self::RATED..Self::RATED + 2].copy_from_slice(&self.rated_frequency.to_be_bytes());
         for (i, v) in self.fail_safe_pzd.iter().enumerate() {
             let at = Self::FAIL_SAFE_PZD + 2 * i;
             out[at..at + 2].copy_from_slice(&v.to_be_bytes());
@@ -240,6 +258,22 @@ mod tests {
         let bytes = UserPrm::DEFAULT.encode();
         assert_eq!(bytes[1], 0x10);
         assert_eq!(UserPrm::parse(&bytes), Ok(UserPrm::DEFAULT));
+    }
+
+    #[test]
+    fn seed_004_lines_334_370_the_rated_frequency_is_a_user_parameter() {
+        let mut prm = UserPrm::DEFAULT;
+        assert_eq!(
+            prm.rated_frequency, 0,
+            "the drive's F0.10 unless the master says"
+        );
+        prm.rated_frequency = 6000;
+        let bytes = prm.encode();
+        assert_eq!(&bytes[60..62], &[0x17, 0x70]);
+        assert_eq!(UserPrm::parse(&bytes), Ok(prm));
+        let mut over = bytes;
+        over[60..62].copy_from_slice(&60_001u16.to_be_bytes());
+        assert_eq!(UserPrm::parse(&over), Err(PrmError::RatedFrequency(60_001)));
     }
 
     #[test]

@@ -7,7 +7,7 @@ use crate::codes::FunctionCode;
 use crate::drive::{DriveError, FaultRecord, ImmediateDrive};
 use crate::words::{control, rose, status};
 
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct MockDrive {
     registers: heapless::LinearMap<u16, u16, 64>,
     pub control_word: u16,
@@ -24,6 +24,24 @@ pub struct MockDrive {
     /// An active warning (AL.xxx): the status word's warning bit, and the fault record when
     /// there is no fault.
     pub warning: Option<u8>,
+}
+
+/// A 50.00 Hz drive (F0.10, its maximum frequency, as the drive simulator's default).
+impl Default for MockDrive {
+    fn default() -> Self {
+        let mut drive = MockDrive {
+            registers: heapless::LinearMap::new(),
+            control_word: 0,
+            persistent_writes: 0,
+            fail_next: None,
+            disconnected: false,
+            fault: None,
+            fault_resets: 0,
+            warning: None,
+        };
+        drive.set(crate::codes::named::MAX_FREQUENCY, 5000);
+        drive
+    }
 }
 
 impl MockDrive {

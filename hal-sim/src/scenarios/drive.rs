@@ -492,6 +492,28 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> i
         i[4] & pds::TRIPPED == 0 && d.fault().is_none()
     })?;
     c.check("fault acknowledge (bit 7): fault cleared", acknowledged);
+    // Seed 004 line 334 on a 60.00 Hz drive (issue 18): 4000h is the rated frequency, read
+    // from the drive's F0.10 at the next parameterisation (the user parameter left at 0).
+    let set = sim
+        .drive_now()
+        .write_register(profidrive::codes::named::MAX_FREQUENCY, 6000, true);
+    let ok = start(sim, setup(Ppo::Ppo1, prm))?;
+    c.check(
+        "F0.10 = 60.00 Hz, parameterised again: data exchange",
+        set.is_ok() && ok,
+    );
+    out = vec![0, 0, 0, 0, pd::READY, 0x4000];
+    put(sim, &out);
+    wait(sim, 100_000, |i, _| i[4] & pds::RDY_ON != 0)?;
+    out[4] = pd::OPERATE;
+    put(sim, &out);
+    let rated = wait(sim, 2_000_000, |i, d| {
+        i[4] & pds::AT_SETPOINT != 0 && i[5] == 0x4000 && d.output_frequency() == 6000
+    })?;
+    c.check(
+        "a 60.00 Hz drive, reference 0x4000: the drive at 60.00 Hz, actual 0x4000",
+        rated,
+    );
     Ok(Vec::new())
 }
 

@@ -135,6 +135,7 @@ const STATUS_RESET: Status = Status {
         error: dp_link::Led::Off,
         online: dp_link::Led::Off,
         offline: dp_link::Led::Off,
+        host: dp_link::HostLed::Off,
     },
     nv_write: None,
     wake_at_us: None,
@@ -500,8 +501,8 @@ impl<F: Firmware> Bridge<F> {
         if new.leds != old.leds {
             let l = new.leds;
             self.events.push(format!(
-                "leds: net {:?}, run {:?}, tx {:?}, rx {:?}, error {:?}, online {:?}, offline {:?}",
-                l.net, l.run, l.tx, l.rx, l.error, l.online, l.offline
+                "leds: net {:?}, run {:?}, tx {:?}, rx {:?}, error {:?}, online {:?}, offline {:?}, host {:?}",
+                l.net, l.run, l.tx, l.rx, l.error, l.online, l.offline, l.host
             ));
         }
         if let Some(record) = new.nv_write {

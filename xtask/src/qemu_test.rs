@@ -298,7 +298,7 @@ fn over_budget(f: &hal_sim::cosim::Figures) -> Option<String> {
 fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
     println!();
     println!(
-        "{:<24} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8}  leds (net run tx rx error online offline)",
+        "{:<24} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8}  leds (net run tx rx error online offline host)",
         "scenario", "result", "locked", "lost", "tsdr bits", "max", "mcu us", "med us", "cycle us"
     );
     let us = |ns: Option<u64>| ns.map_or("-".into(), |ns| format!("{:.1}", ns as f64 / 1000.0));
@@ -311,7 +311,7 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
         let baud = f.locked;
         let l = o.leds;
         println!(
-            "{:<24} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8}  {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
+            "{:<24} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8}  {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
             name,
             if *ok { "ok" } else { "FAILED" },
             baud.map_or("-".into(), |b| b.to_string()),
@@ -329,6 +329,7 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
             l.error,
             l.online,
             l.offline,
+            l.host,
         );
     }
     let b = board::PRODUCTION;

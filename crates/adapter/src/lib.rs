@@ -25,7 +25,7 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
 
-use dp_link::{FromAdapter, Led, Leds, NvRecord, Regs, SlaveState, Status, ToAdapter};
+use dp_link::{FromAdapter, HostLed, Led, Leds, NvRecord, Regs, SlaveState, Status, ToAdapter};
 use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
 use drive_link::{LinkedDrive, ModbusMaster};
 use embedded_hal_nb::serial::{Read, Write};
@@ -93,6 +93,10 @@ pub trait Background {
     fn drive_link_error(&self) -> u8 {
         0
     }
+    /// Seed 004's host LED: the link to the drive.
+    fn host_led(&self) -> HostLed {
+        HostLed::Off
+    }
     /// The station address at power-up, and the rate each telegram came at (rate index of
     /// `dp_consts::Baud`), for the parameters that show them (PROFIdrive 918 and 963).
     fn station(&mut self, _address: u8) {}
@@ -151,6 +155,16 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
 
     fn drive_link_error(&self) -> u8 {
         self.drive().link_error().map_or(0, |e| e.code())
+    }
+
+    fn host_led(&self) -> HostLed {
+        use profidrive::link_diag::DriveLink;
+        match self.drive_link() {
+            DriveLink::NotYet => HostLed::Off,
+            DriveLink::Up => HostLed::Green,
+            DriveLink::LostTemporarily => HostLed::RedBlink,
+            DriveLink::LostPermanently => HostLed::Red,
+        }
     }
 
     fn station(&mut self, address: u8) {
@@ -841,6 +855,7 @@ impl<A: Application + Background> Adapter<A> {
             },
             online: if exchanging { Led::On } else { Led::Off },
             offline: if exchanging { Led::Off } else { Led::On },
+            host: app.host_led(),
         }
     }
 }

@@ -250,8 +250,23 @@ pub enum Led {
     Flash1Hz,
 }
 
-/// The LEDs of both manuals: seed 000's Net, Run, TX and RX; seed 004's error, online and
-/// offline.
+/// Seed 004's host LED (lines 1478-1479), green or red: the link to the drive.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HostLed {
+    /// No exchange with the drive yet.
+    #[default]
+    Off,
+    /// Green: the link works.
+    Green,
+    /// Red, blinking: the link is lost for now.
+    RedBlink,
+    /// Red: the link is lost for good (seed 004's "permanently lost").
+    Red,
+}
+
+/// The LEDs of both manuals: seed 000's Net, Run, TX and RX; seed 004's error, online, offline
+/// and host.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Leds {
@@ -262,6 +277,7 @@ pub struct Leds {
     pub error: Led,
     pub online: Led,
     pub offline: Led,
+    pub host: HostLed,
 }
 
 /// Why a frame could not be made.

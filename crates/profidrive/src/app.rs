@@ -138,6 +138,11 @@ impl<D: Drive> ProfidriveApp<D> {
         &mut self.params
     }
 
+    /// The link to the drive, for seed 004's host LED.
+    pub fn drive_link(&self) -> crate::link_diag::DriveLink {
+        self.link_diag.link()
+    }
+
     /// The drive's reference value for the rated speed (0.01 Hz; 0 while not yet known).
     pub fn rated_reference(&self) -> u16 {
         self.rated_reference
@@ -853,6 +858,24 @@ mod tests {
         Application::fail_safe(&mut app, Instant::from_millis(5), FailSafeReason::ClearData);
         app.service(Instant::from_millis(5));
         assert!(!app.drive().running());
+    }
+
+    #[test]
+    fn seed_004_lines_1478_1479_the_host_led_follows_the_drive_link() {
+        use crate::link_diag::{DriveLink, LINK_LOST_PERMANENTLY_US};
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        assert_eq!(app.drive_link(), DriveLink::NotYet);
+        exchange(&mut app, 1, &ppo3(START, 5000));
+        assert_eq!(app.drive_link(), DriveLink::Up);
+        app.drive_mut().disconnected = true;
+        exchange(&mut app, 2, &ppo3(START, 5000));
+        assert_eq!(app.drive_link(), DriveLink::LostTemporarily);
+        let later = 2 + LINK_LOST_PERMANENTLY_US / 1000;
+        exchange(&mut app, later, &ppo3(START, 5000));
+        assert_eq!(app.drive_link(), DriveLink::LostPermanently);
+        app.drive_mut().disconnected = false;
+        exchange(&mut app, later + 1, &ppo3(START, 5000));
+        assert_eq!(app.drive_link(), DriveLink::Up);
     }
 
     /// A PROFIdrive or ABB Drives app on a 60.00 Hz drive (F0.10 = 6000), running forward at

@@ -16,17 +16,31 @@ pub const EXT_DIAG_LINK_LOST_PERMANENTLY: u8 = 0x02;
 /// diagnosis too, not only from the status word it may not be watching.
 pub const EXT_DIAG_DRIVE_FAULT: u8 = 0x04;
 
+/// The drive link as seed 004's host LED shows it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DriveLink {
+    /// No exchange with the drive yet.
+    NotYet,
+    Up,
+    LostTemporarily,
+    /// Silent for [`LINK_LOST_PERMANENTLY_US`] or more.
+    LostPermanently,
+}
+
 /// The flags and when the link was lost.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LinkDiagnosis {
     lost_since: Option<Instant>,
     flags: u8,
+    /// A cycle with the drive has been noted.
+    noted: bool,
 }
 
 impl LinkDiagnosis {
     /// The drive link's state at `now` (`error`: its error, while it lasts) and whether the
     /// drive reports a fault; whether the flags changed (a new diagnosis).
     pub fn note(&mut self, now: Instant, error: Option<DriveError>, drive_faulted: bool) -> bool {
+        self.noted = true;
         match error {
             Some(_) => {
                 self.lost_since.get_or_insert(now);
@@ -47,6 +61,19 @@ impl LinkDiagnosis {
         let changed = flags != self.flags;
         self.flags = flags;
         changed
+    }
+
+    /// The link as of the last [`note`](Self::note).
+    pub fn link(&self) -> DriveLink {
+        if !self.noted {
+            DriveLink::NotYet
+        } else if self.flags & EXT_DIAG_LINK_LOST_PERMANENTLY != 0 {
+            DriveLink::LostPermanently
+        } else if self.flags & EXT_DIAG_LINK_LOST_TEMPORARILY != 0 {
+            DriveLink::LostTemporarily
+        } else {
+            DriveLink::Up
+        }
     }
 
     /// The extended diagnosis into `buffer`: its length, always 2 (seed 004 line 731: "Fixed

@@ -10,7 +10,7 @@ use super::support::{Checks, Report, SWITCH_ADDRESS};
 use crate::cosim::{CoSim, MasterSetup, Program};
 use crate::firmware::Firmware;
 use dp_consts::Baud;
-use dp_link::Led;
+use dp_link::{HostLed, Led};
 use drive_link::LED_ACTIVITY_US;
 use drive_sim::{DriveSim, LinkFault, ACCEL_TIME, DECEL_TIME, OUTPUT_CURRENT, SET_FREQUENCY};
 use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
@@ -280,6 +280,13 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
         ),
         (leds.tx, leds.rx, leds.run) == (Led::Blink4Hz, Led::Off, Led::Blink2Hz),
     );
+    c.check(
+        format!(
+            "cable out: the host LED blinks red, lost for now ({:?})",
+            leds.host
+        ),
+        leds.host == HostLed::RedBlink,
+    );
     let r = pkw(sim, vendor_request(Task::Read, ACCEL_TIME, 0), &out[4..])?;
     c.check(
         "PKW to a drive that does not answer: reply 7, 0x22",
@@ -298,6 +305,10 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
             leds.tx, leds.rx, leds.run
         ),
         back && (leds.tx, leds.rx, leds.run) == (Led::Blink4Hz, Led::Blink4Hz, Led::Flash1Hz),
+    );
+    c.check(
+        format!("cable back: the host LED green ({:?})", leds.host),
+        leds.host == HostLed::Green,
     );
     // One answer after the adapter's 2 ms timeout: it costs that transaction (retried), and
     // the link is back on the next one; it is not read as the start of the next answer.

@@ -29,6 +29,7 @@ use dp_link::{FromAdapter, HostLed, Led, Leds, NvRecord, Regs, SlaveState, Statu
 use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
 use drive_link::{LinkedDrive, ModbusMaster};
 use embedded_hal_nb::serial::{Read, Write};
+use profidrive::app::ModuleRequest;
 use profidrive::fieldbus_group as fieldbus;
 use profidrive::ppo::Ppo;
 use profidrive::ProfidriveApp;
@@ -109,6 +110,14 @@ pub trait Background {
     fn requested_station(&mut self) -> Option<u16> {
         None
     }
+    /// Whether the station address may be set by a parameter (the switch is at 0).
+    fn node_address_writable(&mut self, _writable: bool) {}
+    /// A parameter write for the adapter to carry out (918, 972), once.
+    fn take_module_request(&mut self) -> Option<ModuleRequest> {
+        None
+    }
+    /// The module restarted (972).
+    fn restarted(&mut self) {}
     /// Set_Prm carries DPV1_Status_1-3 (the drive's 51.21 DP MODE is DP-V1).
     fn dpv1_mode(&self) -> bool {
         false
@@ -187,6 +196,18 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
 
     fn requested_station(&mut self) -> Option<u16> {
         self.drive_mut().fieldbus_mut().take_requested_address()
+    }
+
+    fn node_address_writable(&mut self, writable: bool) {
+        self.params_mut().node_address_writable = writable;
+    }
+
+    fn take_module_request(&mut self) -> Option<ModuleRequest> {
+        ProfidriveApp::take_module_request(self)
+    }
+
+    fn restarted(&mut self) {
+        ProfidriveApp::restarted(self)
     }
 
     fn dpv1_mode(&self) -> bool {
@@ -300,8 +321,18 @@ pub fn link_state(state: State) -> SlaveState {
 struct Recording<A> {
     inner: A,
     nv_write: Option<NvRecord>,
+    /// The record written last since power-up (a restart takes its address).
+    last_record: Option<NvRecord>,
     outputs_applied: u32,
     fail_safes: u16,
+}
+
+impl<A> Recording<A> {
+    /// A record for the storage, written with the next status.
+    fn write_record(&mut self, record: NvRecord) {
+        self.nv_write = Some(record);
+        self.last_record = Some(record);
+    }
 }
 
 impl<A: Application> Application for Recording<A> {
@@ -338,7 +369,7 @@ impl<A: Application> Application for Recording<A> {
         self.inner.static_diag()
     }
     fn store_address(&mut self, address: u8, no_add_chg: bool) {
-        self.nv_write = Some(NvRecord {
+        self.write_record(NvRecord {
             address,
             no_add_chg,
         });
@@ -456,6 +487,7 @@ impl<A: Application + Background> Adapter<A> {
     pub fn boot(switch: u8, nv: Option<NvRecord>, mut app: A) -> Adapter<A> {
         let addressing = addressing(switch, nv);
         app.station(addressing.address);
+        app.node_address_writable(addressing.source != AddressSource::Switch);
         let slave = Slave::new(
             Config {
                 address: addressing.address,
@@ -466,6 +498,7 @@ impl<A: Application + Background> Adapter<A> {
             Recording {
                 inner: app,
                 nv_write: addressing.nv_write,
+                last_record: None,
                 outputs_applied: 0,
                 fail_safes: 0,
             },
@@ -662,6 +695,11 @@ impl<A: Application + Background> Adapter<A> {
         if let Some(address) = self.slave.app_mut().inner.requested_station() {
             self.readdress(now, address);
         }
+        match self.slave.app_mut().inner.take_module_request() {
+            Some(ModuleRequest::StoreAddress(address)) => self.store_address(address),
+            Some(ModuleRequest::Restart) => self.restart(now),
+            None => {}
+        }
         // Set_Slave_Add or the drive changed it: 918 and 51.02 follow.
         let address = self.slave.address();
         if address != self.station_told {
@@ -796,10 +834,37 @@ impl<A: Application + Background> Adapter<A> {
         }
         self.slave.restart_at(now, address);
         let no_add_chg = self.slave.no_add_chg();
-        self.slave.app_mut().nv_write = Some(NvRecord {
+        self.slave.app_mut().write_record(NvRecord {
             address,
             no_add_chg,
         });
+    }
+
+    /// 918 (seed 004 line 1490): with the switch at 0, the address goes to the storage and is
+    /// in force from the next restart (972 or a power cycle).
+    fn store_address(&mut self, address: u8) {
+        if self.addressing.source == AddressSource::Switch
+            || !(1..=dp_consts::MAX_STATION_ADDRESS).contains(&address)
+        {
+            return;
+        }
+        let no_add_chg = self.slave.no_add_chg();
+        self.slave.app_mut().write_record(NvRecord {
+            address,
+            no_add_chg,
+        });
+    }
+
+    /// 972 (seed 004 line 1552): the module restarts, at the address the switch or the
+    /// storage gives now; a master must parameterise it again.
+    fn restart(&mut self, now: Instant) {
+        let stored = self.slave.app().last_record.map(|r| r.address);
+        let address = match (self.addressing.source, stored) {
+            (AddressSource::Switch, _) | (_, None) => self.slave.address(),
+            (_, Some(stored)) => stored,
+        };
+        self.slave.restart_at(now, address);
+        self.slave.app_mut().inner.restarted();
     }
 
     /// The status now; takes a pending storage write.

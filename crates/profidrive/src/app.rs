@@ -18,7 +18,7 @@ use crate::dpv1::Dpv1Server;
 use crate::drive::{Access, Drive, DriveError, ParamRequest, PZD1_LINK_ERROR};
 use crate::faults::FaultBuffer;
 use crate::link_diag::LinkDiagnosis;
-use crate::pd_params::{pzd_target, Frame, Parameters};
+use crate::pd_params::{pzd_target, Action, Frame, Parameters};
 use crate::pkw::{PkwServer, Planned, PKW_BYTES};
 use crate::ppo::{Ppo, MAX_PZD_WORDS};
 use crate::prm::{ControlZeroMode, FailSafeMode, OperationMode, UserPrm};
@@ -86,6 +86,16 @@ pub struct ProfidriveApp<D> {
     dp_mode_dpv1: bool,
 }
 
+/// A parameter write the adapter carries out (seed 004 lines 1490 and 1552).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModuleRequest {
+    /// 918 with the switch at 0: the address to store, in force after a restart.
+    StoreAddress(u8),
+    /// 972: restart the module.
+    Restart,
+}
+
 impl<D: Drive> ProfidriveApp<D> {
     pub fn new(drive: D) -> ProfidriveApp<D> {
         ProfidriveApp {
@@ -136,6 +146,42 @@ impl<D: Drive> ProfidriveApp<D> {
     /// For the adapter: 918 (node address), 963 (baud rate), and actions to carry out.
     pub fn params_mut(&mut self) -> &mut Parameters {
         &mut self.params
+    }
+
+    /// 970 and 971 as the application carries them out; 972 is the adapter's
+    /// ([`ProfidriveApp::take_module_request`]).
+    fn carry_out_action(&mut self) {
+        match self.params.pending_action {
+            Some(Action::FactoryReset) => {
+                self.params.pending_action = None;
+                self.params.restore_defaults();
+            }
+            // Seed 000's drive keeps every parameter a channel writes in its non-volatile
+            // memory at once (the PZD values are run-time values, not parameters to store),
+            // and has no command to store: 971 has nothing left to do.
+            Some(Action::SaveToFlash) => self.params.pending_action = None,
+            Some(Action::Restart) | None => {}
+        }
+    }
+
+    /// What the adapter around the application must carry out for a parameter write: store a
+    /// 918 station address (in force at the next restart), or restart the module (972).
+    pub fn take_module_request(&mut self) -> Option<ModuleRequest> {
+        if let Some(address) = self.params.pending_node_address.take() {
+            return Some(ModuleRequest::StoreAddress(address as u8));
+        }
+        match self.params.pending_action {
+            Some(Action::Restart) => {
+                self.params.pending_action = None;
+                Some(ModuleRequest::Restart)
+            }
+            _ => None,
+        }
+    }
+
+    /// The module restarted (972): its parameters as after a power-up.
+    pub fn restarted(&mut self) {
+        self.params.restarted();
     }
 
     /// The link to the drive, for seed 004's host LED.
@@ -293,6 +339,7 @@ impl<D: Drive> ProfidriveApp<D> {
         if self.prm.operation.translates() {
             self.read_rated_frequency();
         }
+        self.carry_out_action();
         self.note_link(now, result.err());
     }
 
@@ -330,6 +377,7 @@ impl<D: Drive> ProfidriveApp<D> {
             &sources[..words - 1],
         );
         self.drive_status = from_drive[0];
+        self.params.motor_running = self.drive_status & status::RUNNING != 0;
         let faulted = self.drive_status & status::FAULT != 0;
         self.faults.observe(now, was_faulted, faulted);
         let was_warning = from_drive_was_warning;

@@ -222,6 +222,13 @@ pub struct Parameters {
     pub flash_writes: u32,
     /// Actions the adapter must carry out: factory reset (970), save (971), restart (972).
     pub pending_action: Option<Action>,
+    /// A 918 write for the adapter to store, in force from the next restart.
+    pub pending_node_address: Option<u16>,
+    /// The address switch is at 0, so 918 may be written (seed 004 line 1490); the adapter
+    /// sets it.
+    pub node_address_writable: bool,
+    /// The drive runs (its status word's running bit): 970-972 are refused (error 17).
+    pub motor_running: bool,
 }
 
 /// What a 0 -> 1 of 970, 971 or 972 asks for.
@@ -261,6 +268,9 @@ impl Default for Parameters {
             reset: 0,
             flash_writes: 0,
             pending_action: None,
+            pending_node_address: None,
+            node_address_writable: false,
+            motor_running: false,
         }
     }
 }
@@ -357,6 +367,31 @@ fn control_bit(p: &Parameters, at: usize, _: u8, value: u16) -> Result<(), Error
     up_to(5)(value)
 }
 
+/// 918 (seed 004 line 1490): a station address, written only with the address switch at 0;
+/// with the switch set it rules, and a write is error 17 (not in this state) rather than a
+/// value that never takes effect.
+fn node_address(p: &Parameters, _: usize, _: u8, value: u16) -> Result<(), ErrorNumber> {
+    up_to(u16::from(dp_consts::MAX_STATION_ADDRESS))(value)?;
+    if value == 0 || !p.node_address_writable {
+        return Err(if value == 0 {
+            ErrorNumber::OutOfRange
+        } else {
+            ErrorNumber::OperatingState
+        });
+    }
+    Ok(())
+}
+
+/// 970-972 (seed 004 lines 1542-1552): 0 or 1, and the 0 -> 1 change "needs the motor
+/// stopped": a 1 while the drive runs is error 17.
+fn motor_stopped(p: &Parameters, _: usize, _: u8, value: u16) -> Result<(), ErrorNumber> {
+    up_to(1)(value)?;
+    if value == 1 && p.motor_running {
+        return Err(ErrorNumber::OperatingState);
+    }
+    Ok(())
+}
+
 /// 930: speed control (1); torque (8001h) is not a mode of this drive.
 fn operating_mode(_: &Parameters, _: usize, _: u8, value: u16) -> Result<(), ErrorNumber> {
     match value {
@@ -372,7 +407,7 @@ fn operating_mode(_: &Parameters, _: usize, _: u8, value: u16) -> Result<(), Err
 const TABLE: &[Row] = &[
     Row { first: 915, last: 915, slot: |p, _| Slot::Array(&mut p.pzd_out), rights: Rights::ReadWrite, check: pzd_mapping },
     Row { first: 916, last: 916, slot: |p, _| Slot::Array(&mut p.pzd_in), rights: Rights::ReadWrite, check: pzd_mapping },
-    Row { first: 918, last: 918, slot: |p, _| Slot::Word(&mut p.node_address), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(u16::from(dp_consts::MAX_STATION_ADDRESS))(v) },
+    Row { first: 918, last: 918, slot: |p, _| Slot::Word(&mut p.node_address), rights: Rights::ReadWrite, check: node_address },
     Row { first: 919, last: 919, slot: |p, _| Slot::Octets(&p.system_number), rights: Rights::Read, check: any_value },
     Row { first: 927, last: 927, slot: |p, _| Slot::Word(&mut p.pkw_rights), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
     Row { first: 928, last: 928, slot: |p, _| Slot::Word(&mut p.pzd_rights), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
@@ -394,9 +429,9 @@ const TABLE: &[Row] = &[
     Row { first: 967, last: 967, slot: |p, _| Slot::Word(&mut p.control_word), rights: Rights::Read, check: any_value },
     Row { first: 968, last: 968, slot: |p, _| Slot::Word(&mut p.status_word), rights: Rights::Read, check: any_value },
     // 970-972: load defaults, save, restart; each acts on a 0 -> 1 change.
-    Row { first: 970, last: 970, slot: |p, _| Slot::Word(&mut p.load_record), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
-    Row { first: 971, last: 971, slot: |p, _| Slot::Word(&mut p.save_record), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
-    Row { first: 972, last: 972, slot: |p, _| Slot::Word(&mut p.reset), rights: Rights::ReadWrite, check: |_, _, _, v| up_to(1)(v) },
+    Row { first: 970, last: 970, slot: |p, _| Slot::Word(&mut p.load_record), rights: Rights::ReadWrite, check: motor_stopped },
+    Row { first: 971, last: 971, slot: |p, _| Slot::Word(&mut p.save_record), rights: Rights::ReadWrite, check: motor_stopped },
+    Row { first: 972, last: 972, slot: |p, _| Slot::Word(&mut p.reset), rights: Rights::ReadWrite, check: motor_stopped },
 ];
 
 fn row(pnu: u16) -> Option<(&'static Row, usize)> {
@@ -545,6 +580,9 @@ impl Parameters {
             *target = new;
             self.flash_writes += 1;
         }
+        if pnu == 918 && old != new {
+            self.pending_node_address = Some(new);
+        }
         if old == 0 && new == 1 {
             self.pending_action = match pnu {
                 970 => Some(Action::FactoryReset),
@@ -554,6 +592,29 @@ impl Parameters {
             };
         }
         Ok(())
+    }
+
+    /// 970 (seed 004 line 1542, "restore factory settings"): the adapter's own settings back to
+    /// their defaults: the PZD mapping (915/916), the rights (927/928), the operating mode
+    /// (930) and the bit selectors (933-943). The address, the fault buffer and what the drive
+    /// holds stay: seed 000's drive has no command to restore its own defaults.
+    pub fn restore_defaults(&mut self) {
+        let d = Parameters::default();
+        self.pzd_out = d.pzd_out;
+        self.pzd_in = d.pzd_in;
+        self.pkw_rights = d.pkw_rights;
+        self.pzd_rights = d.pzd_rights;
+        self.operating_mode = d.operating_mode;
+        self.control_bit_selectors = d.control_bit_selectors;
+        self.status_bit_selectors = d.status_bit_selectors;
+    }
+
+    /// After the module's restart (972): the actions' parameters read 0 again, as after a
+    /// power-up, so that the next 0 -> 1 acts.
+    pub fn restarted(&mut self) {
+        self.load_record = 0;
+        self.save_record = 0;
+        self.reset = 0;
     }
 
     /// Reads one element of an adapter parameter for DP-V1: a word (subindex 0), an array's
@@ -725,7 +786,11 @@ mod tests {
     /// served, answered 2 and 5; a value beyond 16 bits is out of range.
     #[test]
     fn seed_004_lines_858_863_double_word_writes() {
-        let mut p = Parameters::default();
+        // 918 takes writes with the address switch at 0 (line 1490).
+        let mut p = Parameters {
+            node_address_writable: true,
+            ..Parameters::default()
+        };
         let mut drive = MockDrive::default();
         let r = run(&mut p, &mut drive, RequestLabel::WriteDword, 918, 0, 9);
         assert_eq!(
@@ -877,6 +942,89 @@ mod tests {
         let r = run(&mut p, &mut drive, RequestLabel::WriteWord, 971, 0, 1);
         assert_eq!((r.response_label(), r.value), (ResponseLabel::Word, 1));
         assert_eq!(p.pending_action, Some(Action::SaveToFlash));
+    }
+
+    /// Seed 004 line 1490: 918 changes the node address only with the switch at 0, and from
+    /// the next restart; with the switch set the write is refused (error 17), not kept.
+    #[test]
+    fn seed_004_line_1490_918_is_written_only_with_the_switch_at_0() {
+        let mut p = Parameters {
+            node_address: 8,
+            ..Parameters::default()
+        };
+        let mut drive = MockDrive::default();
+        let r = run(&mut p, &mut drive, RequestLabel::WriteWord, 918, 0, 40);
+        assert_eq!((r.response_label(), r.value), (ResponseLabel::Error, 17));
+        assert_eq!((p.node_address, p.pending_node_address), (8, None));
+        p.node_address_writable = true;
+        let r = run(&mut p, &mut drive, RequestLabel::WriteWord, 918, 0, 40);
+        assert_eq!((r.response_label(), r.value), (ResponseLabel::Word, 40));
+        assert_eq!((p.node_address, p.pending_node_address), (40, Some(40)));
+        // Address 0 is no station address; 127 and above are out of range.
+        for bad in [0, 127] {
+            let r = run(&mut p, &mut drive, RequestLabel::WriteWord, 918, 0, bad);
+            assert_eq!(
+                (r.response_label(), r.value),
+                (ResponseLabel::Error, 2),
+                "{bad}"
+            );
+        }
+    }
+
+    /// Seed 004 lines 1542-1552: 970, 971 and 972 act on a 0 -> 1 change and need the motor
+    /// stopped: a 1 while the drive runs is error 17 (table 21's "not in this state"), a 0 is
+    /// always taken.
+    #[test]
+    fn seed_004_lines_1542_1552_970_to_972_need_the_motor_stopped() {
+        let mut drive = MockDrive::default();
+        for (pnu, action) in [
+            (970, Action::FactoryReset),
+            (971, Action::SaveToFlash),
+            (972, Action::Restart),
+        ] {
+            let mut p = Parameters {
+                motor_running: true,
+                ..Parameters::default()
+            };
+            let r = run(&mut p, &mut drive, RequestLabel::WriteWord, pnu, 0, 1);
+            assert_eq!(
+                (r.response_label(), r.value),
+                (ResponseLabel::Error, 17),
+                "{pnu}"
+            );
+            assert_eq!(p.pending_action, None);
+            let r = run(&mut p, &mut drive, RequestLabel::WriteWord, pnu, 0, 0);
+            assert_eq!(r.response_label(), ResponseLabel::Word, "{pnu}");
+            p.motor_running = false;
+            let r = run(&mut p, &mut drive, RequestLabel::WriteWord, pnu, 0, 1);
+            assert_eq!(r.response_label(), ResponseLabel::Word, "{pnu}");
+            assert_eq!(p.pending_action, Some(action), "{pnu}");
+            // Only a 0 -> 1 change acts: 1 again does nothing.
+            p.pending_action = None;
+            run(&mut p, &mut drive, RequestLabel::WriteWord, pnu, 0, 1);
+            assert_eq!(p.pending_action, None, "{pnu}");
+        }
+    }
+
+    /// Seed 004 line 1542: "restore factory settings" puts the adapter's own settings back;
+    /// the address and the fault buffer stay.
+    #[test]
+    fn seed_004_line_1542_970_restores_the_adapters_settings() {
+        let mut p = Parameters {
+            node_address: 30,
+            pkw_rights: 0,
+            fault_count: 2,
+            ..Parameters::default()
+        };
+        p.pzd_out[2] = 1202;
+        p.control_bit_selectors[1] = 2;
+        p.restore_defaults();
+        let d = Parameters::default();
+        assert_eq!(
+            (p.pzd_out, p.pkw_rights, p.control_bit_selectors),
+            (d.pzd_out, d.pkw_rights, d.control_bit_selectors)
+        );
+        assert_eq!((p.node_address, p.fault_count), (30, 2));
     }
 
     #[test]

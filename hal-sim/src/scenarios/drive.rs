@@ -697,6 +697,61 @@ pub fn fieldbus_group<F: Firmware>(
         "data exchange at 30; the drive's PZD3 mapping read at power-up (PZD3 out -> F0.13)",
         mapped,
     );
+
+    // Seed 004 lines 1490 and 1542-1552 (issue 18): 918 stores an address for the next
+    // restart; 970-972 need the motor stopped; 972 restarts the module at the stored address.
+    let r = pkw(
+        sim,
+        pd_request(RequestLabel::WriteWord, 918, 0, 40),
+        &out[4..],
+    )?;
+    c.check(
+        "PKW write 918 = 40 (switch at 0): accepted, the storage keeps 40, the adapter still at 30",
+        pd_reply(&r) == Some((ResponseLabel::Word, 40))
+            && sim.bridge.nv.is_some_and(|r| r.address == 40)
+            && sim.bridge.status.address == 30,
+    );
+    out[4] = pd::OPERATE;
+    out[5] = 0x1000;
+    put(sim, &out);
+    let running = wait(sim, 500_000, |_, d| d.output_frequency() > 0)?;
+    let r = pkw(
+        sim,
+        pd_request(RequestLabel::WriteWord, 971, 0, 1),
+        &out[4..],
+    )?;
+    c.check(
+        "the motor running: PKW write 971 = 1 is error 17 (needs the motor stopped)",
+        running && pd_reply(&r) == Some((ResponseLabel::Error, 17)),
+    );
+    out[4] = pd::READY;
+    out[5] = 0;
+    put(sim, &out);
+    wait(sim, 1_000_000, |_, d| d.output_frequency() == 0)?;
+    out[..4].copy_from_slice(&pd_request(RequestLabel::WriteWord, 972, 0, 1));
+    put(sim, &out);
+    let t0 = sim.now_us();
+    let end = sim.now + 500_000 * TICKS_PER_US;
+    let moved = sim.run_until(end, |s| s.bridge.status.address == 40)?;
+    c.check(
+        format!(
+            "the motor stopped: 972 = 1 restarts the module at 40 after {} ms",
+            (sim.now_us() - t0) / 1000
+        ),
+        moved,
+    );
+    let mut at_40 = setup(Ppo::Ppo2, prm);
+    at_40.slave_address = 40;
+    let ok = start(sim, at_40)?;
+    let r = pkw(
+        sim,
+        pd_request(RequestLabel::Read, 972, 0, 0),
+        &out[4..],
+    )?;
+    c.check(
+        "data exchange at 40; 972 reads 0 again after the restart",
+        ok && pd_reply(&r) == Some((ResponseLabel::Word, 0)),
+    );
     Ok(Vec::new())
 }
 

@@ -743,11 +743,7 @@ pub fn fieldbus_group<F: Firmware>(
     let mut at_40 = setup(Ppo::Ppo2, prm);
     at_40.slave_address = 40;
     let ok = start(sim, at_40)?;
-    let r = pkw(
-        sim,
-        pd_request(RequestLabel::Read, 972, 0, 0),
-        &out[4..],
-    )?;
+    let r = pkw(sim, pd_request(RequestLabel::Read, 972, 0, 0), &out[4..])?;
     c.check(
         "data exchange at 40; 972 reads 0 again after the restart",
         ok && pd_reply(&r) == Some((ResponseLabel::Word, 0)),

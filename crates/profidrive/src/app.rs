@@ -814,7 +814,10 @@ mod tests {
         app.drive_mut().fault = Some(12);
         exchange(&mut app, 10, &ppo3(START, 5000));
         exchange(&mut app, 20, &ppo3(START, 5000));
-        assert_eq!(app.params().fault_codes[0], 12);
+        assert_eq!(
+            (app.params().fault_codes[0], app.params().fault_numbers[0]),
+            (crate::faults::DRIVECOM_GENERIC, 12)
+        );
         // The master resets the fault (the control word's reset bit rising).
         exchange(
             &mut app,
@@ -825,8 +828,8 @@ mod tests {
         exchange(&mut app, 50, &ppo3(START, 5000));
         let p = app.params();
         assert_eq!(
-            (p.fault_codes[0], p.fault_codes[8]),
-            (0, 12),
+            (p.fault_codes[0], p.fault_codes[8], p.fault_numbers[8]),
+            (0, crate::faults::DRIVECOM_GENERIC, 12),
             "945.1 is 0, 945.9 the fault"
         );
         assert_eq!(p.fault_count, 1);
@@ -1065,7 +1068,10 @@ mod tests {
             6,
             &ppo2([pke(6, 945), 0x0100, 0, 0], [run, 0, 777, 0, 0, 0]),
         );
-        assert_eq!(inputs[3], 12);
+        // Seed 004 line 1522: 945 is DRIVECOM-coded (1000h, generic: seed 000 gives no
+        // meaning to map), 947 has the drive's number (Fu.012).
+        assert_eq!(inputs[3], crate::faults::DRIVECOM_GENERIC);
+        assert_eq!(app.params().fault_numbers[0], 12);
         assert_eq!(app.params().fault_count, 1);
         // 948.1: seconds since that fault.
         app.service(Instant::from_millis(3005));

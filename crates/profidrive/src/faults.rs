@@ -13,6 +13,10 @@ use dp_slave::Instant;
 
 /// DRIVECOM's code for a fault of serial interface 1 (communication, 75xxh).
 pub const DRIVECOM_SERIAL_INTERFACE: u16 = 0x7510;
+/// DRIVECOM's generic error (1000h): the code of every drive fault. Seed 004 line 1522 asks for
+/// DRIVECOM codes in 945, but seed 000 gives the drive's faults only as numbers (Fu.xxx), with
+/// no meaning to map to a specific code; the number is in 947.
+pub const DRIVECOM_GENERIC: u16 = 0x1000;
 
 /// The buffer's state beside the parameters it fills.
 #[derive(Clone, Debug, Default)]
@@ -120,8 +124,7 @@ impl FaultBuffer {
             Ok(FaultRecord::Fault(n)) => u16::from(n),
             _ => 0,
         };
-        // The drive reports Fu.xxx numbers, not DRIVECOM codes: 945 and 947 both hold it.
-        self.push(at, number, number, params);
+        self.push(at, DRIVECOM_GENERIC, number, params);
         true
     }
 

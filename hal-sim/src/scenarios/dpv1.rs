@@ -174,8 +174,8 @@ pub fn profidrive<F: Firmware>(
         &[],
     )?;
     c.check(
-        "read 945 and 947, subindex 1 (fault buffer): the drive's Fu.012 is the current fault",
-        x.words(0).is_some_and(|w| w[0] != 0) && x.words(1).is_some_and(|w| w[0] != 0),
+        "read 945 and 947, subindex 1 (fault buffer): 1000h (DRIVECOM generic) and Fu.012",
+        x.words(0) == Some(vec![0x1000]) && x.words(1) == Some(vec![12]),
     );
     sim.drive_now().clear_fault();
 

@@ -487,9 +487,15 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> i
         pd_request(RequestLabel::ReadArray, 945, 1, 0),
         &out[4..],
     )?;
+    let number = pkw(
+        sim,
+        pd_request(RequestLabel::ReadArray, 947, 1, 0),
+        &out[4..],
+    )?;
     c.check(
-        "PKW read 945[1] (fault code): 12",
-        pd_reply(&r) == Some((ResponseLabel::ArrayWord, 12)),
+        "PKW read 945[1] (fault code): 1000h, DRIVECOM generic; 947[1] (fault number): 12",
+        pd_reply(&r) == Some((ResponseLabel::ArrayWord, 0x1000))
+            && pd_reply(&number) == Some((ResponseLabel::ArrayWord, 12)),
     );
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
     c.check(

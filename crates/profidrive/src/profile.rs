@@ -5,10 +5,16 @@
 //! ```text
 //!             OFF2 or OFF3 (from any state)          fault (from any state)
 //! SWITCH-ON INHIBIT --OFF2=1, OFF3=1, ON=0--> READY TO SWITCH ON --ON=1--> READY TO OPERATE
-//!        ^                                          ^    OFF1 (ON=0)          | ENABLE_OPERATION=1
-//!        | RESET 0->1                               +---------------------- OPERATION ENABLED
-//!      FAULT
+//!   ^    ^   ^                                      ^    OFF1 (ON=0)          | ENABLE_OPERATION=1
+//!   |    |   +- OFF3 ACTIVE <- OFF3 --+             +---- OFF1 ACTIVE <---- OPERATION ENABLED
+//!   |    +----- OFF2 ACTIVE <- OFF2 --+ (from READY TO OPERATE, OPERATION ENABLED, OFFx ACTIVE)
+//!   | RESET 0->1
+//! FAULT
 //! ```
+//!
+//! The OFFx ACTIVE states of seed 004 (table 7) last while the drive still turns (its status
+//! word's running bit): OFF1 ramps down (run enable kept, run command off), OFF2 coasts, OFF3
+//! stops as fast as the drive can; a drive already stopped passes through at once.
 //! References: REF and ACT are signed, 0x4000 (16384) is the rated speed of the motor, a
 //! negative value runs in reverse (seed 004, "给定值"); in the ABB Drives mode 20000 is. The
 //! drive's frequency is unsigned with
@@ -72,6 +78,12 @@ pub enum DriveState {
     ReadyToSwitchOn,
     ReadyToOperate,
     OperationEnabled,
+    /// OFF1 (ON=0) from operation: ramping down (RDY_RUN reads 0).
+    Off1Active,
+    /// OFF2: coasting (OFF_2_STA reads 0), then SWITCH-ON INHIBIT.
+    Off2Active,
+    /// OFF3: the quick stop (OFF_3_STA reads 0), then SWITCH-ON INHIBIT.
+    Off3Active,
     Fault,
 }
 
@@ -128,12 +140,23 @@ impl Profile {
         let cw = self.control_word;
         let reset = cw & control::RESET != 0 && self.previous_control & control::RESET == 0;
         self.previous_control = cw;
-        self.step(cw, reset, drive_status & vendor_status::FAULT != 0);
+        self.step(
+            cw,
+            reset,
+            drive_status & vendor_status::FAULT != 0,
+            drive_status & vendor_status::RUNNING != 0,
+        );
         self.drive_command(rated, units)
     }
 
-    fn step(&mut self, cw: u16, reset: bool, fault: bool) {
+    fn step(&mut self, cw: u16, reset: bool, fault: bool, running: bool) {
         use DriveState::*;
+        // The states in which the motor may turn: an OFF from them waits for it to stop.
+        let turning = running
+            && matches!(
+                self.state,
+                ReadyToOperate | OperationEnabled | Off1Active | Off2Active | Off3Active
+            );
         let off2 = cw & control::NO_OFF2 == 0;
         let off3 = cw & control::NO_OFF3 == 0;
         let on = cw & control::ON != 0;
@@ -145,7 +168,15 @@ impl Profile {
             _ if fault && self.state != Fault => Fault,
             Fault if self.reset_requested && !fault => SwitchOnInhibit,
             Fault => Fault,
+            _ if off2 && turning => Off2Active,
+            Off2Active if running => Off2Active,
+            _ if off3 && turning && self.state != Off2Active => Off3Active,
+            Off3Active if running => Off3Active,
             _ if off2 || off3 => SwitchOnInhibit,
+            Off2Active | Off3Active => SwitchOnInhibit,
+            ReadyToOperate | OperationEnabled | Off1Active if !on && turning => Off1Active,
+            Off1Active if running => Off1Active,
+            Off1Active => ReadyToSwitchOn,
             SwitchOnInhibit if !on => ReadyToSwitchOn,
             SwitchOnInhibit => SwitchOnInhibit,
             ReadyToSwitchOn if on => ReadyToOperate,
@@ -162,15 +193,16 @@ impl Profile {
     fn drive_command(&self, rated: u16, units: i32) -> ToDrive {
         let cw = self.control_word;
         let mut word = vendor::REMOTE;
-        if cw & control::NO_OFF2 == 0 {
+        if cw & control::NO_OFF2 == 0 || self.state == DriveState::Off2Active {
             word |= vendor::COAST_STOP;
         }
-        if cw & control::NO_OFF3 == 0 {
+        if cw & control::NO_OFF3 == 0 || self.state == DriveState::Off3Active {
             word |= vendor::QUICK_STOP;
         }
+        // OFF1 ramps down: the drive stays enabled with its run command off.
         if matches!(
             self.state,
-            DriveState::ReadyToOperate | DriveState::OperationEnabled
+            DriveState::ReadyToOperate | DriveState::OperationEnabled | DriveState::Off1Active
         ) {
             word |= vendor::RUN_ENABLE | vendor::START_ENABLE;
         }
@@ -215,12 +247,15 @@ impl Profile {
             ReadyToSwitchOn => sw |= status::RDY_ON,
             ReadyToOperate => sw |= status::RDY_ON | status::RDY_RUN,
             OperationEnabled => sw |= status::RDY_ON | status::RDY_RUN | status::RDY_REF,
+            // Table 8: RDY_RUN 0 is OFF1 ACTIVE.
+            Off1Active => sw |= status::RDY_ON,
+            Off2Active | Off3Active => {}
             Fault => sw |= status::TRIPPED,
         }
-        if cw & control::NO_OFF2 != 0 {
+        if cw & control::NO_OFF2 != 0 && self.state != Off2Active {
             sw |= status::OFF_2_STA;
         }
-        if cw & control::NO_OFF3 != 0 {
+        if cw & control::NO_OFF3 != 0 && self.state != Off3Active {
             sw |= status::OFF_3_STA;
         }
         if drive_status & vendor_status::WARNING != 0 {
@@ -310,6 +345,76 @@ mod tests {
         // OFF3: quick stop.
         let d = p.command(RUN & !control::NO_OFF3, 0, 0, RATED_50HZ, RATED);
         assert_eq!(d.control_word & vendor::QUICK_STOP, vendor::QUICK_STOP);
+        assert_eq!(p.state, SwitchOnInhibit);
+    }
+
+    /// Seed 004 table 7 (lines 790-794) and table 8 (lines 819-827): OFF1, OFF2 and OFF3 pass
+    /// through their ACTIVE states while the drive still turns, with the status bits that
+    /// name them, and end in READY TO SWITCH ON (OFF1) or SWITCH-ON INHIBIT (OFF2, OFF3).
+    #[test]
+    fn seed_004_lines_790_794_off1_off2_off3_active_while_the_drive_turns() {
+        let turning = vendor_status::RUNNING;
+        let operating = || {
+            let mut p = Profile::default();
+            for cw in [OFF, OFF | control::ON, RUN] {
+                p.command(cw, 0x2000, turning, RATED_50HZ, RATED);
+            }
+            assert_eq!(p.state, OperationEnabled);
+            p
+        };
+        // OFF1: ramp down with the drive enabled and its run command off.
+        let mut p = operating();
+        let d = p.command(RUN & !control::ON, 0x2000, turning, RATED_50HZ, RATED);
+        assert_eq!(p.state, Off1Active);
+        assert_eq!(
+            d.control_word & (vendor::RUN | vendor::RUN_ENABLE),
+            vendor::RUN_ENABLE
+        );
+        assert_eq!(
+            p.status_word(turning) & 0x7,
+            status::RDY_ON,
+            "RDY_RUN 0: OFF1 ACTIVE"
+        );
+        p.command(RUN & !control::ON, 0x2000, turning, RATED_50HZ, RATED);
+        assert_eq!(p.state, Off1Active);
+        p.command(RUN & !control::ON, 0x2000, 0, RATED_50HZ, RATED);
+        assert_eq!(p.state, ReadyToSwitchOn);
+        // OFF2: coast (held while the drive turns, even if OFF2 is released), then inhibit.
+        let mut p = operating();
+        let d = p.command(RUN & !control::NO_OFF2, 0, turning, RATED_50HZ, RATED);
+        assert_eq!(p.state, Off2Active);
+        assert_eq!(d.control_word & vendor::COAST_STOP, vendor::COAST_STOP);
+        let d = p.command(RUN, 0, turning, RATED_50HZ, RATED);
+        assert_eq!(p.state, Off2Active);
+        assert_eq!(d.control_word & vendor::COAST_STOP, vendor::COAST_STOP);
+        assert_eq!(p.status_word(turning) & status::OFF_2_STA, 0);
+        p.command(RUN, 0, 0, RATED_50HZ, RATED);
+        assert_eq!(p.state, SwitchOnInhibit);
+        // OFF3: quick stop, OFF_3_STA 0 until the drive stands, then inhibit.
+        let mut p = operating();
+        let d = p.command(RUN & !control::NO_OFF3, 0, turning, RATED_50HZ, RATED);
+        assert_eq!(p.state, Off3Active);
+        assert_eq!(d.control_word & vendor::QUICK_STOP, vendor::QUICK_STOP);
+        assert_eq!(
+            p.status_word(turning) & (status::OFF_3_STA | status::SWC_ON_INHIB),
+            0
+        );
+        // OFF2 during the quick stop: coast instead.
+        p.command(
+            RUN & !control::NO_OFF3 & !control::NO_OFF2,
+            0,
+            turning,
+            RATED_50HZ,
+            RATED,
+        );
+        assert_eq!(p.state, Off2Active);
+        p.command(
+            RUN & !control::NO_OFF3 & !control::NO_OFF2,
+            0,
+            0,
+            RATED_50HZ,
+            RATED,
+        );
         assert_eq!(p.state, SwitchOnInhibit);
     }
 

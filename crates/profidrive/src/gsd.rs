@@ -246,7 +246,8 @@ pub fn write_variant(out: &mut impl Write, variant: Variant) -> fmt::Result {
     line(out, "Max_Input_Len", &max_io)?;
     line(out, "Max_Output_Len", &max_io)?;
     line(out, "Max_Data_Len", &(2 * max_io))?;
-    line(out, "Modul_Offset", &0)?;
+    // The first module at slot 1, as ABB_0812.gsd numbers it.
+    line(out, "Modul_Offset", &1)?;
     line(
         out,
         "Max_Diag_Data_Len",
@@ -307,7 +308,26 @@ pub fn write_variant(out: &mut impl Write, variant: Variant) -> fmt::Result {
     writeln!(out)?;
     for (n, f) in fields().enumerate() {
         writeln!(out, "ExtUserPrmData = {} \"{}\"", n + 1, f.name)?;
-        if f.range.0 >= 0xD000 {
+        if f.range.0 == 0xD000 {
+            // RdPZD: only the codes Set_Prm takes (D0.00-D0.99, D1.00-D1.49, DE.00-DE.25), as a
+            // value set: the range would let a tool pick D2.xx .. DD.xx, which gives Prm_Fault.
+            write!(out, "{} {}", f.data_type, Hex(f.default))?;
+            let readable = (f.range.0..=f.range.1).filter(|&c| {
+                matches!(
+                    crate::codes::FunctionCode(c).kind(),
+                    Some(crate::codes::CodeKind::Status | crate::codes::CodeKind::FaultRecord)
+                )
+            });
+            for (i, code) in readable.enumerate() {
+                let sep = match i {
+                    0 => " ",
+                    _ if i % 10 == 0 => ", \\\n    ",
+                    _ => ", ",
+                };
+                write!(out, "{sep}{}", Hex(code))?;
+            }
+            writeln!(out)?;
+        } else if f.range.0 >= 0xD000 {
             // Function codes read best in hex (F0.29 is 0xF029).
             writeln!(
                 out,

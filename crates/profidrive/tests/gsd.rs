@@ -233,3 +233,47 @@ fn the_dpv1_user_parameters_are_what_a_dpv1_set_prm_carries() {
     assert!(slave.dpv1_enabled());
     assert_eq!(slave.app().prm().operation, OperationMode::Profidrive);
 }
+
+/// Issue 18: the RdPZD fields offer exactly the codes Set_Prm takes (seed 000's "Dx.xx, DE.xx":
+/// D0.00-D0.99, D1.00-D1.49, DE.00-DE.25), and every one of them parses; a tool cannot pick a
+/// code that gives Prm_Fault. The rated frequency's range is what Set_Prm takes too.
+#[test]
+fn every_value_a_tool_can_pick_is_taken_by_set_prm() {
+    let gsd = parsed();
+    let field = |name: &str| {
+        gsd.user_prm_data
+            .data_ref
+            .iter()
+            .map(|(_, d)| d)
+            .find(|d| d.name == name)
+            .unwrap_or_else(|| panic!("no field {name}"))
+            .clone()
+    };
+    let rd = field("RdPZD2");
+    let gsd_parser::PrmValueConstraint::Enum(codes) = &rd.constraint else {
+        panic!("RdPZD2 is not a value set: {:?}", rd.constraint);
+    };
+    assert_eq!(codes.len(), 100 + 50 + 26);
+    for &code in codes {
+        let mut builder = gsd_parser::PrmBuilder::new(&gsd.user_prm_data);
+        builder.set_prm("RdPZD2", code);
+        assert!(
+            UserPrm::parse(builder.as_bytes()).is_ok(),
+            "RdPZD2 = {code:#06X} is offered but refused"
+        );
+    }
+    for refused in [0xD0A0i64, 0xD150, 0xD200, 0xDD00, 0xDE26] {
+        assert!(!rd.constraint.is_valid(refused), "{refused:#06X} offered");
+    }
+    let rated = field("Rated freq 0.01Hz (0 = F0.10)");
+    assert_eq!(
+        rated.constraint,
+        gsd_parser::PrmValueConstraint::MinMax(0, i64::from(UserPrm::MAX_RATED_FREQUENCY))
+    );
+    let mut builder = gsd_parser::PrmBuilder::new(&gsd.user_prm_data);
+    builder.set_prm("Rated freq 0.01Hz (0 = F0.10)", 6000);
+    assert_eq!(
+        UserPrm::parse(builder.as_bytes()).unwrap().rated_frequency,
+        6000
+    );
+}

@@ -23,6 +23,7 @@
 
 mod board;
 mod drive_uart;
+mod ram_test;
 
 use defmt::error;
 
@@ -79,7 +80,7 @@ macro_rules! adapter_app {
             use adapter::{Adapter, Out};
             use bbqueue::{BBBuffer, Consumer, Producer};
             use core::sync::atomic::{AtomicU32, Ordering};
-            use defmt::{info, warn};
+            use defmt::{error, info, warn};
             use dp_link::{Deframer, Fed, FromAdapter, ToAdapter};
             use rtic_sync::channel::{Receiver, Sender};
             use rtic_sync::make_channel;
@@ -112,6 +113,13 @@ macro_rules! adapter_app {
                 info!("cycle counter: 100 nops count {=u32} cycles", board::calibrate());
                 let mut link_tx = board::link_tx();
                 send(&mut link_tx, &mut [0; dp_link::MAX_FRAME_LEN], &FromAdapter::Ready);
+                if let Err(address) = crate::ram_test::result() {
+                    // Seed 000 line 685: Run steady on, and the adapter does not start.
+                    error!("RAM test: the word at {=u32:#010x} failed", address);
+                    let status = FromAdapter::Status(adapter::ram_fault_status());
+                    send(&mut link_tx, &mut [0; dp_link::MAX_FRAME_LEN], &status);
+                    board::halt_ram_fault();
+                }
                 crate::selftest();
                 link::spawn(woken).ok();
                 (

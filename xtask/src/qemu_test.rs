@@ -19,9 +19,14 @@ use std::time::Instant;
 const TARGET: &str = "thumbv7m-none-eabi";
 
 /// The failure-path self-tests: an image feature, and the ERROR line its log must end with.
-const SELFTESTS: [(&str, &str); 2] = [
+const SELFTESTS: [(&str, &str); 3] = [
     ("selftest-panic", "selftest: a panic on purpose"),
     ("selftest-hardfault", "HardFault"),
+    // A stuck bit 256 bytes into RAM (seed 000 line 685).
+    (
+        "selftest-ramfault",
+        "RAM test: the word at 0x20000100 failed",
+    ),
 ];
 
 /// One firmware image: the board, its feature, its limits.

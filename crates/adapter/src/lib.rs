@@ -275,6 +275,26 @@ pub struct Addressing {
     pub nv_write: Option<NvRecord>,
 }
 
+/// The status after a failed RAM test at power-up (seed 000 line 685, "上电常亮 MCU、DP 芯片
+/// RAM 异常"): Run steady on, offline; the adapter does not start.
+pub fn ram_fault_status() -> Status {
+    Status {
+        address: 0,
+        state: SlaveState::PowerOn,
+        leds: Leds {
+            run: Led::On,
+            offline: Led::On,
+            ..Leds::default()
+        },
+        nv_write: None,
+        wake_at_us: None,
+        drive_link_error: 0,
+        outputs_applied: 0,
+        fail_safes: 0,
+        malformed_telegrams: 0,
+    }
+}
+
 /// Resolves the station address at power-up from the switch and the storage.
 pub fn addressing(switch: u8, nv: Option<NvRecord>) -> Addressing {
     match switch {
@@ -1176,6 +1196,22 @@ mod tests {
         assert_eq!(adapter.app().outputs, [0x0F]);
         assert!(!adapter.cycle_pending());
         assert!(writes.iter().any(|w| w.contains("DataExch")), "{writes:?}");
+    }
+
+    /// Seed 000 line 685: after a RAM fault at power-up the Run LED is steady on (its only
+    /// steady-on meaning) and the adapter shows itself offline, nothing else lit.
+    #[test]
+    fn seed_000_line_685_a_ram_fault_lights_run_steady() {
+        let s = ram_fault_status();
+        assert_eq!(
+            s.leds,
+            Leds {
+                run: Led::On,
+                offline: Led::On,
+                ..Leds::default()
+            }
+        );
+        assert_eq!(s.state, SlaveState::PowerOn);
     }
 
     #[test]

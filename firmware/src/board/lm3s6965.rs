@@ -149,6 +149,11 @@ pub fn cycles_since(start: u32) -> u32 {
 }
 
 /// Ends the QEMU run with a failure code (panic, HardFault).
+/// After a failed RAM test: QEMU exits with a failure code, as for a panic.
+pub fn halt_ram_fault() -> ! {
+    exit_failure()
+}
+
 pub fn exit_failure() -> ! {
     cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
     #[allow(clippy::empty_loop)]

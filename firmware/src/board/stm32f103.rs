@@ -267,6 +267,14 @@ pub fn cycles_since(start: u32) -> u32 {
 }
 
 /// A panic or HardFault on the board: reset and come up again.
+/// After a failed RAM test: the board stays as it is, Run LED steady on, until power is
+/// cycled (a reset would only test the same cells again).
+pub fn halt_ram_fault() -> ! {
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
 pub fn exit_failure() -> ! {
     cortex_m::peripheral::SCB::sys_reset()
 }

@@ -911,6 +911,25 @@ mod tests {
         assert!(!app.drive().running());
     }
 
+    /// Seed 004 line 1522: 945 is coded per DRIVECOM; seed 000 gives the drive's faults only
+    /// as Fu numbers, so 945 is 1000h (generic) and 947 the number; a lost link is 7510h.
+    #[test]
+    fn seed_004_line_1522_945_is_drivecom_coded_and_947_the_fu_number() {
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        exchange(&mut app, 0, &ppo3(START, 5000));
+        app.drive_mut().fault = Some(12);
+        exchange(&mut app, 10, &ppo3(START, 5000));
+        exchange(&mut app, 20, &ppo3(START, 5000));
+        let p = app.params();
+        assert_eq!((p.fault_codes[0], p.fault_numbers[0]), (0x1000, 12));
+        app.drive_mut().fault = None;
+        app.drive_mut().disconnected = true;
+        exchange(&mut app, 30, &ppo3(START, 5000));
+        let p = app.params();
+        assert_eq!(p.fault_codes[0], crate::faults::DRIVECOM_SERIAL_INTERFACE);
+        assert_eq!((p.fault_codes[8], p.fault_numbers[8]), (0x1000, 12));
+    }
+
     #[test]
     fn seed_004_lines_1478_1479_the_host_led_follows_the_drive_link() {
         use crate::link_diag::{DriveLink, LINK_LOST_PERMANENTLY_US};

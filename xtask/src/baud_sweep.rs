@@ -17,10 +17,10 @@
 use crate::{check_flags, flag_value, project_root};
 use anyhow::{bail, Context, Result};
 use dp_phy::bus::FaultInjector;
-use dp_phy::testbench::{random_telegram, Kind, Testbench};
+use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Testbench};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::{Baud, BaudState, BitTiming, Config, Tick};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::fmt::Write as _;
 
@@ -145,17 +145,9 @@ fn run_case(c: &Case) -> Outcome {
     let from_sent = tb.sent.len();
     let count = TELEGRAMS * (1 + c.noise as usize);
     let idle = 33;
-    let mut sent = Vec::new();
-    for i in 0..count {
-        let kind = if i == 0 {
-            [Kind::Sd1, Kind::Sd2, Kind::Sd3, Kind::Sd4][rng.gen_range(0..4)]
-        } else {
-            Kind::ALL[rng.gen_range(0..5)]
-        };
-        let n = rng.gen_range(1..32);
-        let t = random_telegram(&mut rng, kind, n);
-        tb.send(if i == 0 { 40 } else { idle }, &t);
-        sent.push(t);
+    let sent = poll_sequence(&mut rng, count);
+    for (i, t) in sent.iter().enumerate() {
+        tb.send(if i == 0 { 40 } else { idle }, t);
     }
     if c.noise > 0 {
         let bits_per_telegram = idle as u64 + 40 * 11;

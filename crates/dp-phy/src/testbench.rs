@@ -194,6 +194,23 @@ impl Kind {
     pub const ALL: [Kind; 5] = [Kind::Sd1, Kind::Sd2, Kind::Sd3, Kind::Sd4, Kind::Sc];
 }
 
+/// `count` random telegrams as the bus carries them from a master's polls: the first opens with
+/// a start delimiter (SD1-SD4: an SC is no telegram start the search takes), the rest of any
+/// kind, SD2 with 1..31 data bytes.
+pub fn poll_sequence<R: rand::Rng>(rng: &mut R, count: usize) -> Vec<Vec<u8>> {
+    (0..count)
+        .map(|i| {
+            let kind = if i == 0 {
+                [Kind::Sd1, Kind::Sd2, Kind::Sd3, Kind::Sd4][rng.gen_range(0..4)]
+            } else {
+                Kind::ALL[rng.gen_range(0..5)]
+            };
+            let n = rng.gen_range(1..32);
+            random_telegram(rng, kind, n)
+        })
+        .collect()
+}
+
 /// A well-formed telegram of `kind` with random addresses, function code and data (SD2: `len`
 /// data bytes, 1..=246). Built byte by byte rather than by the `fdl` crate: the delimiter below
 /// the responder must take whatever the line carries, including what `fdl` would never emit.

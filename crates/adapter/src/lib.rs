@@ -507,7 +507,12 @@ impl<A: Application + Background> Adapter<A> {
     pub fn boot(switch: u8, nv: Option<NvRecord>, mut app: A) -> Adapter<A> {
         let addressing = addressing(switch, nv);
         app.station(addressing.address);
-        app.node_address_writable(addressing.source != AddressSource::Switch);
+        // Seed 004 line 1490: "with the switch at 0" (99 restores the factory address at every
+        // power-up, so a stored one would not last).
+        app.node_address_writable(matches!(
+            addressing.source,
+            AddressSource::Storage | AddressSource::Default
+        ));
         let slave = Slave::new(
             Config {
                 address: addressing.address,
@@ -863,8 +868,10 @@ impl<A: Application + Background> Adapter<A> {
     /// 918 (seed 004 line 1490): with the switch at 0, the address goes to the storage and is
     /// in force from the next restart (972 or a power cycle).
     fn store_address(&mut self, address: u8) {
-        if self.addressing.source == AddressSource::Switch
-            || !(1..=dp_consts::MAX_STATION_ADDRESS).contains(&address)
+        if !matches!(
+            self.addressing.source,
+            AddressSource::Storage | AddressSource::Default
+        ) || !(1..=dp_consts::MAX_STATION_ADDRESS).contains(&address)
         {
             return;
         }

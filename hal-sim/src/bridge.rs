@@ -24,7 +24,7 @@
 use crate::firmware::{Firmware, Handled, Write};
 use board::Board;
 use dp_link::sim::SimToAdapter;
-use dp_link::{Leds, NvRecord, SlaveState, Status, ToAdapter, MAX_FRAME_LEN};
+use dp_link::{NvRecord, Status, ToAdapter, MAX_FRAME_LEN};
 use dp_phy::responder::{Input, Responder};
 use dp_phy::Tick;
 use drive_sim::line::DriveLine;
@@ -123,28 +123,6 @@ pub struct Bridge<F: Firmware> {
     floor_ns: u64,
 }
 
-/// The status before the firmware's first.
-const STATUS_RESET: Status = Status {
-    address: 0,
-    state: SlaveState::PowerOn,
-    leds: Leds {
-        net: dp_link::Led::Off,
-        run: dp_link::Led::Off,
-        tx: dp_link::Led::Off,
-        rx: dp_link::Led::Off,
-        error: dp_link::Led::Off,
-        online: dp_link::Led::Off,
-        offline: dp_link::Led::Off,
-        host: dp_link::HostLed::Off,
-    },
-    nv_write: None,
-    wake_at_us: None,
-    drive_link_error: 0,
-    outputs_applied: 0,
-    fail_safes: 0,
-    malformed_telegrams: 0,
-};
-
 impl<F: Firmware> Bridge<F> {
     /// The board around `firmware`, not yet powered (see [`Bridge::boot`]).
     pub fn new(firmware: F, clock_hz: u32, switch: u8, nv: Option<NvRecord>) -> Bridge<F> {
@@ -154,7 +132,7 @@ impl<F: Firmware> Bridge<F> {
             board: board::PRODUCTION,
             switch,
             nv,
-            status: STATUS_RESET,
+            status: Status::POWER_ON,
             drive: DriveLine::default(),
             figures: LinkFigures::default(),
             events: Vec::new(),

@@ -265,6 +265,14 @@ pub enum AddressSource {
     FactoryReset,
 }
 
+impl AddressSource {
+    /// Seed 004 line 1490: a parameter (918) sets the address "with the switch at 0" only;
+    /// switch 99 restores the factory address at every power-up, so a stored one would not last.
+    pub fn parameter_may_set(self) -> bool {
+        matches!(self, AddressSource::Storage | AddressSource::Default)
+    }
+}
+
 /// The address, whether Set_Slave_Add may change it, and a record to write now.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -279,19 +287,12 @@ pub struct Addressing {
 /// RAM 异常"): Run steady on, offline; the adapter does not start.
 pub fn ram_fault_status() -> Status {
     Status {
-        address: 0,
-        state: SlaveState::PowerOn,
         leds: Leds {
             run: Led::On,
             offline: Led::On,
-            ..Leds::default()
+            ..Leds::OFF
         },
-        nv_write: None,
-        wake_at_us: None,
-        drive_link_error: 0,
-        outputs_applied: 0,
-        fail_safes: 0,
-        malformed_telegrams: 0,
+        ..Status::POWER_ON
     }
 }
 
@@ -507,12 +508,7 @@ impl<A: Application + Background> Adapter<A> {
     pub fn boot(switch: u8, nv: Option<NvRecord>, mut app: A) -> Adapter<A> {
         let addressing = addressing(switch, nv);
         app.station(addressing.address);
-        // Seed 004 line 1490: "with the switch at 0" (99 restores the factory address at every
-        // power-up, so a stored one would not last).
-        app.node_address_writable(matches!(
-            addressing.source,
-            AddressSource::Storage | AddressSource::Default
-        ));
+        app.node_address_writable(addressing.source.parameter_may_set());
         let slave = Slave::new(
             Config {
                 address: addressing.address,
@@ -868,10 +864,8 @@ impl<A: Application + Background> Adapter<A> {
     /// 918 (seed 004 line 1490): with the switch at 0, the address goes to the storage and is
     /// in force from the next restart (972 or a power cycle).
     fn store_address(&mut self, address: u8) {
-        if !matches!(
-            self.addressing.source,
-            AddressSource::Storage | AddressSource::Default
-        ) || !(1..=dp_consts::MAX_STATION_ADDRESS).contains(&address)
+        if !self.addressing.source.parameter_may_set()
+            || !(1..=dp_consts::MAX_STATION_ADDRESS).contains(&address)
         {
             return;
         }

@@ -226,6 +226,21 @@ pub struct Status {
     pub malformed_telegrams: u16,
 }
 
+impl Status {
+    /// Before the firmware's first status: power-on, every LED off, nothing counted.
+    pub const POWER_ON: Status = Status {
+        address: 0,
+        state: SlaveState::PowerOn,
+        leds: Leds::OFF,
+        nv_write: None,
+        wake_at_us: None,
+        drive_link_error: 0,
+        outputs_applied: 0,
+        fail_safes: 0,
+        malformed_telegrams: 0,
+    };
+}
+
 /// The DP slave states.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -278,6 +293,20 @@ pub struct Leds {
     pub online: Led,
     pub offline: Led,
     pub host: HostLed,
+}
+
+impl Leds {
+    /// Every LED off.
+    pub const OFF: Leds = Leds {
+        net: Led::Off,
+        run: Led::Off,
+        tx: Led::Off,
+        rx: Led::Off,
+        error: Led::Off,
+        online: Led::Off,
+        offline: Led::Off,
+        host: HostLed::Off,
+    };
 }
 
 /// Why a frame could not be made.

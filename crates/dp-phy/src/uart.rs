@@ -123,13 +123,9 @@ impl UartRx {
         }
     }
 
-    /// Where in a bit (sixteenths) this receiver samples.
-    fn sample_points(&self) -> &'static [u64] {
-        if self.vote {
-            &VOTE_POINTS
-        } else {
-            core::slice::from_ref(&MID_POINT)
-        }
+    /// Where in a bit this receiver samples, as thresholds of 16 x the phase.
+    fn points(&self) -> &[u64] {
+        &self.thresholds[..if self.vote { VOTE_POINTS.len() } else { 1 }]
     }
 
     /// Next state at `now` for the filtered `level` (`fell`: it fell on this clock; `edge`: it
@@ -161,7 +157,7 @@ impl UartRx {
         }
         let m = self.timing.modulo;
         let p = q.ph + self.timing.inc;
-        if q.bit == 0 && level && 16 * q.ph < self.last_vote() * m {
+        if q.bit == 0 && level && 16 * q.ph < self.last_vote() {
             // False start: the line rose before the start bit's last vote.
             d.active = false;
             d.false_start = Some(now);
@@ -176,9 +172,9 @@ impl UartRx {
             }
         }
         let mut out = None;
-        let points = self.sample_points().len();
+        let points = self.points().len();
         let (from, to) = (16 * q.ph, 16 * p);
-        for (i, &thr) in self.thresholds[..points].iter().enumerate() {
+        for (i, &thr) in self.points().iter().enumerate() {
             if from < thr && thr <= to {
                 d.votes += level as u8;
                 if i + 1 == points {
@@ -205,11 +201,9 @@ impl UartRx {
         (out, d)
     }
 
+    /// The threshold of the bit's last sample.
     fn last_vote(&self) -> u64 {
-        *self
-            .sample_points()
-            .last()
-            .expect("at least one sample point")
+        *self.points().last().expect("at least one sample point")
     }
 
     fn finish(
@@ -251,16 +245,15 @@ impl UartRx {
         if !q.active {
             return Tick::MAX;
         }
-        let m = self.timing.modulo;
-        if q.bit == 0 && level && 16 * q.ph < self.last_vote() * m {
+        if q.bit == 0 && level && 16 * q.ph < self.last_vote() {
             return 0;
         }
         let next_point = self
-            .sample_points()
+            .points()
             .iter()
-            .map(|&pt| pt * m)
+            .copied()
             .find(|&thr| 16 * q.ph < thr)
-            .unwrap_or(16 * m);
+            .unwrap_or(16 * self.timing.modulo);
         // The event happens on the tick whose phase first reaches the threshold.
         let ticks = (next_point - 16 * q.ph).div_ceil(16 * self.timing.inc);
         ticks - 1
@@ -302,7 +295,7 @@ impl UartRx {
             return self.skip_votes_stepwise(ticks, level, now, q);
         }
         let m = self.timing.modulo;
-        let points = &self.thresholds[..self.sample_points().len()];
+        let points = self.points();
         let n = points.len() as u8;
         let sampled =
             |from: u64, to: u64| points.iter().filter(|&&t| from < t && t <= to).count() as u8;
@@ -575,11 +568,8 @@ mod tests {
                 q.active = true;
                 q.bit = rng.gen_range(1..10);
                 q.ph = rng.gen_range(0..rx.timing.modulo);
-                let before = rx.thresholds[..rx.sample_points().len()]
-                    .iter()
-                    .filter(|&&t| t <= 16 * q.ph)
-                    .count() as u8;
-                q.votes = if before == rx.sample_points().len() as u8 {
+                let before = rx.points().iter().filter(|&&t| t <= 16 * q.ph).count() as u8;
+                q.votes = if before == rx.points().len() as u8 {
                     0
                 } else {
                     rng.gen_range(0..=before)

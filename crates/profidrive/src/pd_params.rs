@@ -371,13 +371,12 @@ fn control_bit(p: &Parameters, at: usize, _: u8, value: u16) -> Result<(), Error
 /// with the switch set it rules, and a write is error 17 (not in this state) rather than a
 /// value that never takes effect.
 fn node_address(p: &Parameters, _: usize, _: u8, value: u16) -> Result<(), ErrorNumber> {
+    if value == 0 {
+        return Err(ErrorNumber::OutOfRange);
+    }
     up_to(u16::from(dp_consts::MAX_STATION_ADDRESS))(value)?;
-    if value == 0 || !p.node_address_writable {
-        return Err(if value == 0 {
-            ErrorNumber::OutOfRange
-        } else {
-            ErrorNumber::OperatingState
-        });
+    if !p.node_address_writable {
+        return Err(ErrorNumber::OperatingState);
     }
     Ok(())
 }

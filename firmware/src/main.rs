@@ -29,8 +29,31 @@ use defmt::error;
 
 #[cfg(feature = "stm32f103")]
 use defmt_rtt as _;
-#[cfg(feature = "lm3s6965")]
+#[cfg(feature = "semihosting")]
 use defmt_semihosting as _;
+
+/// The firmware's version: `git describe` of the sources it was built from, which xtask
+/// names (`cargo xtask dist` reads it back from the image, at the symbol `DP_ADAPTER_VERSION`;
+/// PROFIdrive 964.2 carries its major and minor numbers).
+const VERSION: &str = adapter::FIRMWARE_VERSION;
+
+/// The version where a tool finds it in the image: NUL-padded, at a symbol of its own.
+#[no_mangle]
+#[used]
+static DP_ADAPTER_VERSION: [u8; 64] = {
+    let mut bytes = [0u8; 64];
+    let version = VERSION.as_bytes();
+    assert!(
+        version.len() < bytes.len(),
+        "the version does not fit its symbol"
+    );
+    let mut i = 0;
+    while i < version.len() {
+        bytes[i] = version[i];
+        i += 1;
+    }
+    bytes
+};
 
 /// Bytes the link queue holds: four maximal frames (events queue while the drive cycle runs).
 const LINK_QUEUE_LEN: usize = 4 * dp_link::MAX_FRAME_LEN;
@@ -109,7 +132,7 @@ macro_rules! adapter_app {
                 let board = board::init(cx.core, cx.device);
                 let (producer, consumer) = LINK_QUEUE.try_split().unwrap();
                 let (wake, woken) = make_channel!((), 1);
-                info!("boot: {}", board::NAME);
+                info!("boot: {=str}, firmware {=str}", board::BOARD.description, crate::VERSION);
                 info!("cycle counter: 100 nops count {=u32} cycles", board::calibrate());
                 let mut link_tx = board::link_tx();
                 send(&mut link_tx, &mut [0; dp_link::MAX_FRAME_LEN], &FromAdapter::Ready);
@@ -272,6 +295,14 @@ macro_rules! adapter_app {
                 frame: &mut [u8; dp_link::MAX_FRAME_LEN],
                 message: &ToAdapter,
             ) {
+                // A measurement, answered alone: no event, so no counts and no `Done`.
+                #[cfg(feature = "sim")]
+                if let ToAdapter::Sim(dp_link::sim::SimToAdapter::StackPeak) = *message {
+                    let (used_bytes, room_bytes) = crate::ram_test::stack_peak();
+                    let peak = dp_link::sim::SimFromAdapter::StackPeak { used_bytes, room_bytes };
+                    send(tx, frame, &FromAdapter::Sim(peak));
+                    return;
+                }
                 // Instructions are counted from the frame's end, for hal-sim's board time.
                 #[cfg(feature = "sim")]
                 #[allow(unused_mut)]
@@ -352,7 +383,6 @@ macro_rules! adapter_app {
     };
 }
 
-#[cfg(feature = "lm3s6965")]
-adapter_app!(UART0, UART1, GPIOA);
-#[cfg(feature = "stm32f103")]
-adapter_app!(USART1, USART2, EXTI0);
+/// Each board module instantiates the app on its interrupts: `crate::adapter_app!(link UART,
+/// drive UART, a free interrupt for the software tasks)`.
+pub(crate) use adapter_app;

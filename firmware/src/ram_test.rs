@@ -4,6 +4,10 @@
 //! and all-one words. It finds stuck-at, transition and address-decoder faults and coupling
 //! between words. Its result is left in `.uninit`, which the runtime does not touch.
 //!
+//! After a pass, every word is painted with [`PAINT`]: the runtime then writes `.data` and
+//! `.bss`, and the stack overwrites the paint as it grows, so the lowest word above the
+//! statics that no longer holds it is the deepest the stack has been ([`stack_peak`]).
+//!
 //! Assembly, not Rust: nothing may touch RAM (the stack included) while it is tested, and
 //! cortex-m-rt calls any Rust code this early undefined behaviour. The test uses r0-r3 and r12
 //! only, and no stack.
@@ -12,6 +16,9 @@ use core::mem::MaybeUninit;
 
 /// The marker the test leaves when every word passed.
 const PASSED: u32 = 0x600D_5EED;
+
+/// The word RAM holds after the test.
+const PAINT: u32 = 0x5AC3_A53C;
 
 /// The test's result: the marker, and the address of the first word that failed.
 #[no_mangle]
@@ -26,6 +33,29 @@ pub fn result() -> Result<(), u32> {
         Ok(())
     } else {
         Err(address)
+    }
+}
+
+/// The deepest the stack has been since power-up, and its room (RAM above the statics), in
+/// bytes: the lowest word between the statics and the stack's top no longer painted.
+#[cfg(feature = "sim")]
+pub fn stack_peak() -> (u32, u32) {
+    extern "C" {
+        static __sheap: u32;
+        static _stack_start: u32;
+    }
+    // SAFETY: linker symbols: their addresses bound the stack's region, which is mapped RAM;
+    // the words below the stack pointer are read, never written, as plain words.
+    unsafe {
+        let bottom = core::ptr::addr_of!(__sheap);
+        let top = core::ptr::addr_of!(_stack_start);
+        let mut at = bottom;
+        while at < top && core::ptr::read_volatile(at) == PAINT {
+            at = at.add(1);
+        }
+        let room = (top as usize - bottom as usize) as u32;
+        let used = (top as usize - at as usize) as u32;
+        (used, room)
     }
 }
 
@@ -91,6 +121,12 @@ macro_rules! march_c {
             "    adds  r3, r3, #4\n",
             "    cmp   r3, r1\n",
             "    bne   6b\n",
+            // Paint: up, write the stack's paint.
+            "    ldr   r2, ={paint}\n",
+            "    mov   r3, r0\n",
+            "7:  str   r2, [r3], #4\n",
+            "    cmp   r3, r1\n",
+            "    bne   7b\n",
             "    ldr   r2, =0x600D5EED\n",
             "    movs  r3, #0\n",
             "    b     9f\n",
@@ -101,7 +137,7 @@ macro_rules! march_c {
             "    str   r3, [r1, #4]\n",
             "    bx    lr\n",
             ".ltorg\n",
-        ));
+        ), paint = const PAINT);
     };
 }
 

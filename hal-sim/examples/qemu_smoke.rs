@@ -1,11 +1,13 @@
 //! Boots the firmware in QEMU and exchanges a few link messages, printing each reply.
-//! `cargo run -p hal-sim --example qemu_smoke -- <qemu-system-arm> <firmware elf>`
+//! `cargo run -p hal-sim --example qemu_smoke -- <qemu-system-arm> <firmware elf> [machine]`
+//! (the machine defaults to the QEMU board's, lm3s6965evb).
 use dp_link::ToAdapter;
 use hal_sim::firmware::{Firmware, Qemu};
 
 fn main() -> std::io::Result<()> {
     let args: Vec<String> = std::env::args().collect();
-    let mut fw = Qemu::start(args[1].as_ref(), args[2].as_ref())?;
+    let machine = args.get(3).map_or("lm3s6965evb", String::as_str);
+    let mut fw = Qemu::start(args[1].as_ref(), args[2].as_ref(), machine)?;
     let boot = ToAdapter::Boot {
         seq: 1,
         now_us: 0,

@@ -265,6 +265,8 @@ pub struct Figures {
     /// Telegrams the transceiver delivered with an error (never forwarded).
     pub bad_telegrams: u64,
     pub collisions: u64,
+    /// The firmware's stack at its deepest, where it has one to measure (under QEMU).
+    pub stack_peak: Option<crate::firmware::StackPeak>,
 }
 
 /// The whole bus and the board around the firmware.

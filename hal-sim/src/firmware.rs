@@ -5,7 +5,7 @@
 //! ([`ToAdapter`]) and collects what the firmware writes while it handles it ([`Handled`]):
 //! the product's writes for the transceiver, each with the instructions the firmware had run
 //! when it sent it (the simulation-only `Done` mark), so that the caller places
-//! them in board time. The QEMU side is a localhost socket that QEMU's UART0 connects to;
+//! them in board time. The QEMU side is a localhost socket that QEMU's first serial port (the link UART) connects to;
 //! QEMU's stdout carries only the defmt stream (semihosting), collected for the caller to
 //! decode.
 //!
@@ -106,6 +106,19 @@ pub trait Firmware {
 
     /// Exactly `n` bytes the firmware wrote to its drive UART, in order.
     fn drive_receive(&mut self, n: usize) -> io::Result<Vec<u8>>;
+
+    /// The deepest the firmware's stack has been since power-up and the room it has, in
+    /// bytes, where there is a stack to measure (not in-process).
+    fn stack_peak(&mut self) -> io::Result<Option<StackPeak>> {
+        Ok(None)
+    }
+}
+
+/// A stack measurement: bytes used at the deepest, of the room above the statics.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StackPeak {
+    pub used_bytes: u32,
+    pub room_bytes: u32,
 }
 
 /// The in-process drive UART: bytes in both directions, and a count of those sent.
@@ -228,6 +241,8 @@ pub const REPLY_TIMEOUT: Duration = Duration::from_secs(20);
 pub struct Qemu {
     qemu: PathBuf,
     elf: PathBuf,
+    /// The QEMU machine, for a restart.
+    machine: String,
     /// `-icount`'s value, for a restart.
     icount: String,
     /// defmt bytes of earlier power cycles, each run's stream decoded on its own.
@@ -254,20 +269,21 @@ impl Qemu {
         Some(ticks as f64 / 100.0)
     }
 
-    /// Starts QEMU with `elf` on the lm3s6965evb, UART0 connected to a fresh localhost socket,
-    /// `-icount shift=7` so that the firmware's cycle counts repeat run to run.
-    pub fn start(qemu: &Path, elf: &Path) -> io::Result<Qemu> {
-        Qemu::start_with(qemu, elf, ICOUNT)
+    /// Starts QEMU with `elf` on `machine` (a board's `Runs::Qemu`), its first serial port (the
+    /// link) and its second (the drive link) connected to fresh localhost sockets, `-icount
+    /// shift=7` so that the firmware's cycle counts repeat run to run.
+    pub fn start(qemu: &Path, elf: &Path, machine: &str) -> io::Result<Qemu> {
+        Qemu::start_with(qemu, elf, machine, ICOUNT)
     }
 
     /// As [`Qemu::start`], for a run on the wall clock (`qemu-run`): QEMU sleeps while the
     /// firmware waits for an interrupt instead of spinning (66 % of a core idle, 7 % with
     /// this), and the counts still come from `-icount`.
-    pub fn start_realtime(qemu: &Path, elf: &Path) -> io::Result<Qemu> {
-        Qemu::start_with(qemu, elf, ICOUNT_REALTIME)
+    pub fn start_realtime(qemu: &Path, elf: &Path, machine: &str) -> io::Result<Qemu> {
+        Qemu::start_with(qemu, elf, machine, ICOUNT_REALTIME)
     }
 
-    fn start_with(qemu: &Path, elf: &Path, icount: &str) -> io::Result<Qemu> {
+    fn start_with(qemu: &Path, elf: &Path, machine: &str, icount: &str) -> io::Result<Qemu> {
         let listener = TcpListener::bind("127.0.0.1:0")?;
         let port = listener.local_addr()?.port();
         let drive_listener = TcpListener::bind("127.0.0.1:0")?;
@@ -275,7 +291,7 @@ impl Qemu {
         let mut child = Command::new(qemu)
             .args([
                 "-machine",
-                "lm3s6965evb",
+                machine,
                 "-cpu",
                 "cortex-m3",
                 "-display",
@@ -333,6 +349,7 @@ impl Qemu {
         let mut qemu = Qemu {
             qemu: qemu.to_path_buf(),
             elf: elf.to_path_buf(),
+            machine: machine.to_string(),
             icount: icount.to_string(),
             earlier_runs: Vec::new(),
             child,
@@ -493,6 +510,27 @@ impl Firmware for Qemu {
         self.restart_process()
     }
 
+    fn stack_peak(&mut self) -> io::Result<Option<StackPeak>> {
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let request = ToAdapter::Sim(SimToAdapter::StackPeak);
+        let bytes = dp_link::encode(&request, &mut frame)
+            .map_err(|_| io::Error::other("message does not fit a frame"))?;
+        self.link.write_all(bytes)?;
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        match self.read_message(&mut frame)? {
+            Some(FromAdapter::Sim(SimFromAdapter::StackPeak {
+                used_bytes,
+                room_bytes,
+            })) => Ok(Some(StackPeak {
+                used_bytes,
+                room_bytes,
+            })),
+            other => Err(io::Error::other(format!(
+                "asked for the stack peak, got {other:?}"
+            ))),
+        }
+    }
+
     fn drive_send(&mut self, bytes: &[u8]) -> io::Result<()> {
         self.drive.write_all(bytes)
     }
@@ -538,7 +576,7 @@ impl Qemu {
     fn restart_process(&mut self) -> io::Result<()> {
         self.kill_and_collect();
         let earlier = std::mem::take(&mut self.earlier_runs);
-        let fresh = Qemu::start_with(&self.qemu, &self.elf, &self.icount)?;
+        let fresh = Qemu::start_with(&self.qemu, &self.elf, &self.machine, &self.icount)?;
         // Swap the fresh process in; the old (already dead) one is dropped with `fresh`.
         let old = std::mem::replace(self, fresh);
         drop(old);

@@ -10,9 +10,15 @@
 //!   interactively, on the simulated bus or on a serial port for an external master.
 //! - `qemu-test [--only NAME] [--overwrite]`: the firmware under QEMU against hal-sim,
 //!   scenario by scenario, with golden files in `ci/expected/qemu-test/`.
+//! - `flash [--dry-run] [--log] [--probe VID:PID[:SERIAL]] [--chip NAME]`: the production
+//!   image onto a board through a debug probe (probe-rs, in `flash/`).
+//! - `dist`: the release bundle for a production line under `target/dist/<version>/`.
+//! - `clippy-firmware`: clippy, warnings denied, on the firmware of every board in the table.
 
 mod baud_sweep;
+mod dist;
 mod dp_cycle;
+mod flash;
 mod gsd;
 mod phy_bench;
 mod pty_check;
@@ -33,7 +39,7 @@ fn try_main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some((task, rest)) = args.split_first() else {
         bail!(
-            "usage: cargo xtask <qemu-test|qemu-run|baud-sweep|phy-bench|dp-cycle|gsd> [options]"
+            "usage: cargo xtask <qemu-test|qemu-run|flash|dist|clippy-firmware|baud-sweep|phy-bench|dp-cycle|gsd> [options]"
         );
     };
     match task.as_str() {
@@ -43,8 +49,12 @@ fn try_main() -> Result<()> {
         "gsd" => gsd::run(rest),
         "qemu-test" => qemu_test::run(rest),
         "qemu-run" => qemu_run::run(rest),
+        "flash" => flash::run(rest),
+        "dist" => dist::run(rest),
+        "clippy-firmware" => qemu_test::clippy_firmware(rest),
         other => bail!(
-            "unknown task `{other}`: qemu-test, qemu-run, baud-sweep, phy-bench, dp-cycle or gsd"
+            "unknown task `{other}`: qemu-test, qemu-run, flash, dist, clippy-firmware, \
+             baud-sweep, phy-bench, dp-cycle or gsd"
         ),
     }
 }

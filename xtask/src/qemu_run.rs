@@ -27,7 +27,7 @@
 //! The status line rewrites itself on a terminal and prints a line each time otherwise (a log
 //! file holds lines).
 
-use crate::qemu_test::{build, ensure_qemu, ensure_target, IMAGES};
+use crate::qemu_test::{build, ensure_qemu, ensure_target, QEMU_IMAGE};
 use crate::{check_flags, flag_value};
 use anyhow::{bail, Context, Result};
 use dp_consts::Baud;
@@ -179,8 +179,11 @@ pub fn run(args: &[String]) -> Result<()> {
     ensure_target()?;
     let qemu = ensure_qemu()?;
     println!("qemu-run: building the firmware (release, lm3s6965evb)...");
-    let elf = build(&IMAGES[0])?;
-    let firmware = Qemu::start_realtime(&qemu, &elf).context("starting QEMU")?;
+    let elf = build(&QEMU_IMAGE)?;
+    let machine = QEMU_IMAGE
+        .machine()
+        .expect("the QEMU board runs under QEMU");
+    let firmware = Qemu::start_realtime(&qemu, &elf, machine).context("starting QEMU")?;
     let log = if args.iter().any(|a| a == "--log") {
         Some(LiveLog::new(&elf)?)
     } else {

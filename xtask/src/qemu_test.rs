@@ -29,33 +29,43 @@ const SELFTESTS: [(&str, &str); 3] = [
     ),
 ];
 
-/// One firmware image: the board, its feature, its limits.
+/// One firmware image: its board (a row of `board::BOARDS`, whose name is its feature) and the
+/// features it adds (a self-test).
 pub(crate) struct Image {
-    board: &'static str,
-    features: &'static [&'static str],
-    flash_limit: u64,
-    ram_limit: u64,
+    pub(crate) board: &'static board::Board,
+    extra_feature: Option<&'static str>,
 }
 
-pub(crate) const IMAGES: [Image; 2] = [
-    Image {
-        board: board::LM3S6965_QEMU.name,
-        features: &[],
-        flash_limit: board::LM3S6965_QEMU.flash_bytes as u64,
-        ram_limit: board::LM3S6965_QEMU.ram_bytes as u64,
-    },
-    Image {
-        board: board::STM32F103.name,
-        features: &["--no-default-features", "--features", "stm32f103"],
-        // The chip has 64 KiB; the image keeps to 48 KiB (40 KiB before DP-V1, which took
-        // 5.3 KiB of it), so that what follows has a quarter of the chip.
-        flash_limit: PRODUCTION_FLASH_BUDGET,
-        ram_limit: board::STM32F103.ram_bytes as u64,
-    },
-];
+impl Image {
+    /// The board's own image.
+    pub(crate) const fn of(board: &'static board::Board) -> Image {
+        Image {
+            board,
+            extra_feature: None,
+        }
+    }
 
-/// The flash the production image may take (of the STM32F103C8's 64 KiB).
-const PRODUCTION_FLASH_BUDGET: u64 = 48 * 1024;
+    /// Its target directory's name: the board, or the self-test it was built for.
+    fn name(&self) -> &'static str {
+        self.extra_feature.unwrap_or(self.board.name)
+    }
+
+    /// The QEMU machine it runs on, if it runs under QEMU.
+    pub(crate) fn machine(&self) -> Option<&'static str> {
+        match self.board.runs {
+            board::Runs::Qemu { machine } => Some(machine),
+            board::Runs::Probe => None,
+        }
+    }
+}
+
+/// The QEMU board's image: every scenario runs on it.
+pub(crate) const QEMU_IMAGE: Image = Image::of(&board::LM3S6965_QEMU);
+/// The production image, flashed by `cargo xtask flash` and bundled by `cargo xtask dist`.
+pub(crate) const PRODUCTION_IMAGE: Image = Image::of(&board::PRODUCTION);
+/// The drive scenario the production board's code runs under QEMU (with every `autodetect-`
+/// scenario): the vendor profile, through USART2 to the drive.
+const STM32_QEMU_DRIVE_SCENARIO: &str = "drive-vendor";
 
 pub fn run(args: &[String]) -> Result<()> {
     check_flags(args, &["--overwrite"], &["--only"])?;
@@ -65,32 +75,29 @@ pub fn run(args: &[String]) -> Result<()> {
     ensure_target()?;
     let qemu = ensure_qemu()?;
     let mut failures = 0usize;
-    let mut elf_for_qemu = None;
-    println!("firmware images:");
-    for image in &IMAGES {
-        let elf = build(image)?;
+    let version = crate::dist::firmware_version()?;
+    println!("firmware images ({version}):");
+    let mut elves = Vec::new();
+    for board in &board::BOARDS {
+        let image = Image::of(board);
+        let elf = build(&image)?;
         let (flash, ram) = image_size(&elf)?;
-        let fits = flash <= image.flash_limit && ram <= image.ram_limit;
+        let (flash_limit, ram_limit) = (board.flash_budget as u64, board.memory.ram_bytes as u64);
+        let fits = flash <= flash_limit && ram <= ram_limit;
         println!(
-            "  {:<10} flash {:>6} B of {:>6} B, RAM {:>6} B of {:>6} B (static; the stack takes the rest){}",
-            image.board,
+            "  {:<14} flash {:>6} B of {:>6} B, RAM {:>6} B of {:>6} B (static; the stack takes the rest){}",
+            board.name,
             flash,
-            image.flash_limit,
+            flash_limit,
             ram,
-            image.ram_limit,
+            ram_limit,
             if fits { "" } else { "  DOES NOT FIT" }
         );
         if !fits {
             failures += 1;
         }
-        if image.board == "lm3s6965" {
-            elf_for_qemu = Some(elf);
-        }
+        elves.push((image, elf, ram));
     }
-    let elf = elf_for_qemu.expect("the QEMU image is in IMAGES");
-    let elf_bytes = std::fs::read(&elf)?;
-    let table = defmt_decoder::Table::parse(&elf_bytes)?
-        .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
     println!("failure paths:");
     for (feature, want) in SELFTESTS {
         match selftest(&qemu, feature, want) {
@@ -102,19 +109,62 @@ pub fn run(args: &[String]) -> Result<()> {
         }
     }
 
+    // Every scenario on the QEMU board; the autodetect ones and one drive scenario on the
+    // production board's code too, named `<board>/<scenario>`, with goldens in a folder of the
+    // board's name.
     let expected_dir = project_root().join("ci/expected/qemu-test");
-    let scenarios: Vec<&str> = scenarios::names()
-        .into_iter()
-        .filter(|name| only.is_none_or(|o| *name == o))
-        .collect();
-    if scenarios.is_empty() {
+    let mut runs: Vec<(String, &Image, &Path, &str, PathBuf)> = Vec::new();
+    for (image, elf, _) in elves
+        .iter()
+        .filter(|(image, _, _)| image.machine().is_some())
+    {
+        let main = image.board == QEMU_IMAGE.board;
+        for name in scenarios::names() {
+            if !(main || name.starts_with("autodetect-") || name == STM32_QEMU_DRIVE_SCENARIO) {
+                continue;
+            }
+            let (row, dir) = if main {
+                (name.to_string(), expected_dir.clone())
+            } else {
+                (
+                    format!("{}/{name}", image.board.name),
+                    expected_dir.join(image.board.name),
+                )
+            };
+            if only.is_none_or(|o| row == o) {
+                runs.push((row, image, elf, name, dir));
+            }
+        }
+    }
+    if runs.is_empty() {
         bail!("no scenario named {:?}", only.unwrap_or_default());
     }
     let started = Instant::now();
-    let mut rows = Vec::new();
-    for (i, s) in scenarios.iter().enumerate() {
+    let mut rows: Vec<(String, bool, Option<Outcome>)> = Vec::new();
+    let mut not_run = Vec::new();
+    for (i, (row, image, elf, name, dir)) in runs.iter().enumerate() {
+        // A board whose RAM cannot hold the statics and the stack the QEMU board measured
+        // would only crash: say what it needs instead.
+        if image.board != QEMU_IMAGE.board {
+            let statics = elves
+                .iter()
+                .find(|(e, _, _)| e.board == image.board)
+                .map_or(0, |(_, _, ram)| *ram);
+            if let Some((peak, at)) = stack_peak(&rows) {
+                let need = statics + peak;
+                let has = u64::from(image.board.memory.ram_bytes);
+                if need > has {
+                    not_run.push(format!(
+                        "{row}: not run: {} has {has} B of RAM; the image needs {statics} B of \
+                         statics and {peak} B of stack (the QEMU board's peak, in {at}), {need} B",
+                        image.board.name
+                    ));
+                    continue;
+                }
+            }
+        }
         let t0 = Instant::now();
-        let result = run_one(&qemu, &elf, &table, s, &expected_dir, overwrite);
+        let result = run_one(&qemu, image, elf, name, dir, &version, overwrite);
         let (ok, detail, outcome) = match result {
             Ok((outcome, golden)) => {
                 let mut problems: Vec<String> = outcome
@@ -130,10 +180,10 @@ pub fn run(args: &[String]) -> Result<()> {
             Err(e) => (false, vec![format!("error: {e:#}")], None),
         };
         println!(
-            "[{:>2}/{}] {:<24} {} ({:.1} s)",
+            "[{:>2}/{}] {:<32} {} ({:.1} s)",
             i + 1,
-            scenarios.len(),
-            s,
+            runs.len(),
+            row,
             if ok { "ok" } else { "FAILED" },
             t0.elapsed().as_secs_f64()
         );
@@ -143,9 +193,13 @@ pub fn run(args: &[String]) -> Result<()> {
         if !ok {
             failures += 1;
         }
-        rows.push((s.to_string(), ok, outcome));
+        rows.push((row.clone(), ok, outcome));
     }
     print_table(&rows);
+    for line in &not_run {
+        println!("{line}");
+    }
+    failures += check_ram(&rows, &elves);
     for (_, _, outcome) in &rows {
         for line in outcome.iter().flat_map(|o| &o.report) {
             println!("{line}");
@@ -163,19 +217,56 @@ pub fn run(args: &[String]) -> Result<()> {
     Ok(())
 }
 
+/// The deepest stack any scenario so far measured, and in which.
+fn stack_peak(rows: &[(String, bool, Option<Outcome>)]) -> Option<(u64, &str)> {
+    rows.iter()
+        .filter_map(|(name, _, o)| {
+            Some((
+                u64::from(o.as_ref()?.figures.stack_peak?.used_bytes),
+                name.as_str(),
+            ))
+        })
+        .max_by_key(|(peak, _)| *peak)
+}
+
+/// Statics and the deepest stack measured, against each board's RAM: one line a board, and
+/// the number that do not fit (the production board's stack is the QEMU board's, the same
+/// code but for the board module).
+fn check_ram(rows: &[(String, bool, Option<Outcome>)], elves: &[(Image, PathBuf, u64)]) -> usize {
+    let Some((peak, at)) = stack_peak(rows) else {
+        return 0;
+    };
+    let mut over = 0;
+    for (image, _, statics) in elves {
+        let has = u64::from(image.board.memory.ram_bytes);
+        let need = statics + peak;
+        let fits = need <= has;
+        println!(
+            "ram: board={} statics={statics} stack_peak={peak} needs={need} has={has}{} (stack measured on the QEMU board, deepest in {at})",
+            image.board.name,
+            if fits { "" } else { " DOES NOT FIT" }
+        );
+        // The emulated profile's RAM is the emulator's, not the product's: it is reported,
+        // and its scenarios are not run, but it fails nothing.
+        if !fits && image.board.runs == board::Runs::Probe {
+            over += 1;
+        }
+    }
+    over
+}
+
 /// Builds the QEMU image with a self-test `feature`, runs it, and checks that QEMU exits with a
 /// failure code after the firmware logged `want` at ERROR level. Returns what it saw.
 fn selftest(qemu: &Path, feature: &'static str, want: &str) -> Result<String> {
     let image = Image {
-        board: feature,
-        features: &[],
-        flash_limit: 0,
-        ram_limit: 0,
+        extra_feature: Some(feature),
+        ..QEMU_IMAGE
     };
-    let elf = build_with(&image, &["--features", feature])?;
+    let elf = build(&image)?;
     let table = defmt_decoder::Table::parse(&std::fs::read(&elf)?)?
         .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
-    let mut firmware = Qemu::start(qemu, &elf).context("starting QEMU")?;
+    let machine = image.machine().expect("the QEMU board runs under QEMU");
+    let mut firmware = Qemu::start(qemu, &elf, machine).context("starting QEMU")?;
     let status = firmware
         .wait_exit(std::time::Duration::from_secs(20))?
         .ok_or_else(|| anyhow!("QEMU did not exit"))?;
@@ -199,13 +290,19 @@ fn selftest(qemu: &Path, feature: &'static str, want: &str) -> Result<String> {
 /// Runs one scenario in its own QEMU; returns the outcome and any golden-file problems.
 fn run_one(
     qemu: &Path,
+    image: &Image,
     elf: &Path,
-    table: &defmt_decoder::Table,
     name: &str,
     expected_dir: &Path,
+    version: &str,
     overwrite: bool,
 ) -> Result<(Outcome, Vec<String>)> {
-    let firmware = Qemu::start(qemu, elf).context("starting QEMU")?;
+    let table = defmt_decoder::Table::parse(&std::fs::read(elf)?)?
+        .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
+    let machine = image
+        .machine()
+        .context("the image does not run under QEMU")?;
+    let firmware = Qemu::start(qemu, elf, machine).context("starting QEMU")?;
     let (outcome, firmware) = scenarios::run(name, firmware)?;
     let streams = firmware.stop();
     let mut text = String::new();
@@ -216,10 +313,12 @@ fn run_one(
     let mut problems = Vec::new();
     for (run, bytes) in streams.iter().enumerate() {
         text.push_str(&format!("--- firmware log, power-up {} ---\n", run + 1));
-        for (level, message) in decode(table, bytes)? {
+        for (level, message) in decode(&table, bytes)? {
             if level == "ERROR" {
                 problems.push(format!("firmware error: {message}"));
             }
+            // The version changes with every commit; the golden holds its place.
+            let message = message.replace(version, "<version>");
             text.push_str(&format!("{level:<5} {message}\n"));
         }
     }
@@ -303,20 +402,20 @@ fn over_budget(f: &hal_sim::cosim::Figures) -> Option<String> {
 fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
     println!();
     println!(
-        "{:<24} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8}  leds (net run tx rx error online offline host)",
-        "scenario", "result", "locked", "lost", "tsdr bits", "max", "mcu us", "med us", "cycle us"
+        "{:<32} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8} {:>6}  leds (net run tx rx error online offline host)",
+        "scenario", "result", "locked", "lost", "tsdr bits", "max", "mcu us", "med us", "cycle us", "stack"
     );
     let us = |ns: Option<u64>| ns.map_or("-".into(), |ns| format!("{:.1}", ns as f64 / 1000.0));
     for (name, ok, outcome) in rows {
         let Some(o) = outcome else {
-            println!("{name:<24} {:<6}", if *ok { "ok" } else { "FAILED" });
+            println!("{name:<32} {:<6}", if *ok { "ok" } else { "FAILED" });
             continue;
         };
         let f = &o.figures;
         let baud = f.locked;
         let l = o.leds;
         println!(
-            "{:<24} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8}  {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
+            "{:<32} {:<6} {:>7} {:>5} {:>9} {:>6} {:>8} {:>8} {:>8} {:>6}  {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
             name,
             if *ok { "ok" } else { "FAILED" },
             baud.map_or("-".into(), |b| b.to_string()),
@@ -327,6 +426,7 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
             us(f.worst_outputs_to_inputs_ns),
             us(f.median_outputs_to_inputs_ns),
             us(f.median_dp_cycle_ns),
+            f.stack_peak.map_or("-".into(), |p| p.used_bytes.to_string()),
             l.net,
             l.run,
             l.tx,
@@ -344,7 +444,8 @@ fn print_table(rows: &[(String, bool, Option<Outcome>)]) {
          arriving at the MCU to the firmware's writes (inputs included) back in the transceiver, \
          worst and median, on the {} ({} MHz, {} instructions per 100 counted, link {} bit/s); \
          cycle us: the master's median Data_Exchange cycle to the adapter, the budget of the \
-         worst (a scenario over it fails).",
+         worst (a scenario over it fails); stack: the firmware's deepest stack in bytes since \
+         its last power-up.",
         b.chip,
         b.mcu_clock_hz / 1_000_000,
         b.cycles_per_instruction_pct,
@@ -436,32 +537,69 @@ pub(crate) fn ensure_qemu() -> Result<PathBuf> {
         .ok_or_else(|| anyhow!("qemu-system-arm still not on PATH after apt-get"))
 }
 
-/// Builds one board's image in its own target directory; returns the ELF.
+/// Builds an image (release) in a target directory of its own name, with the version from
+/// `git describe`; returns the ELF.
 pub(crate) fn build(image: &Image) -> Result<PathBuf> {
-    build_with(image, &[])
-}
-
-/// Builds `image` with `extra` cargo arguments, in a target directory named after the image.
-fn build_with(image: &Image, extra: &[&str]) -> Result<PathBuf> {
-    let firmware = project_root().join("firmware");
-    let target_dir = firmware.join("target").join(image.board);
-    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-        .current_dir(&firmware)
-        .args(["build", "--release", "--quiet"])
-        .args(image.features)
-        .args(extra)
-        .arg("--target-dir")
-        .arg(&target_dir)
+    let status = firmware_cargo("build", image)?
+        .arg("--quiet")
         .status()
         .context("running cargo for the firmware")?;
     if !status.success() {
-        bail!("the {} firmware did not build", image.board);
+        bail!("the {} firmware did not build", image.name());
     }
-    Ok(target_dir.join(TARGET).join("release/dp-adapter"))
+    Ok(firmware_target_dir(image)
+        .join(TARGET)
+        .join("release/dp-adapter"))
+}
+
+/// `cargo clippy -- -D warnings` on every board's firmware (what `ci/run` lints), with the
+/// environment the builds have, so that neither rebuilds the other's crates.
+pub fn clippy_firmware(args: &[String]) -> Result<()> {
+    check_flags(args, &[], &[])?;
+    ensure_target()?;
+    for board in &board::BOARDS {
+        println!("clippy: firmware for {}", board.name);
+        let status = firmware_cargo("clippy", &Image::of(board))?
+            .args(["--", "-D", "warnings"])
+            .status()
+            .context("running cargo clippy for the firmware")?;
+        if !status.success() {
+            bail!("clippy found problems in the {} firmware", board.name);
+        }
+    }
+    Ok(())
+}
+
+fn firmware_target_dir(image: &Image) -> PathBuf {
+    project_root().join("firmware/target").join(image.name())
+}
+
+/// `cargo <subcommand> --release` for `image`'s board and features in its target directory,
+/// with the firmware's version and date.
+fn firmware_cargo(subcommand: &str, image: &Image) -> Result<Command> {
+    let mut features = image.board.name.to_string();
+    if let Some(extra) = image.extra_feature {
+        features = format!("{features},{extra}");
+    }
+    let mut cargo = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cargo
+        .current_dir(project_root().join("firmware"))
+        .args([
+            subcommand,
+            "--release",
+            "--no-default-features",
+            "--features",
+        ])
+        .arg(&features)
+        .arg("--target-dir")
+        .arg(firmware_target_dir(image))
+        .env("DP_ADAPTER_VERSION", crate::dist::firmware_version()?)
+        .env("DP_ADAPTER_DATE", crate::dist::firmware_date());
+    Ok(cargo)
 }
 
 /// Flash (code, read-only data, initial data) and static RAM (data, bss) of an image.
-fn image_size(elf: &Path) -> Result<(u64, u64)> {
+pub(crate) fn image_size(elf: &Path) -> Result<(u64, u64)> {
     use object::{Object, ObjectSection};
     let bytes = std::fs::read(elf)?;
     let file = object::File::parse(&*bytes)?;

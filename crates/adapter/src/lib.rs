@@ -53,6 +53,9 @@ pub const PPO_CONFIGURATIONS: &[&[u8]] = &[
 /// The drive application on its link: what the firmware runs, on the drive UART `uart`.
 pub type DriveApp<U> = ProfidriveApp<LinkedDrive<U>>;
 
+/// The firmware's version (`git describe`, as its build names it), also in 964.2.
+pub use profidrive::identification::VERSION as FIRMWARE_VERSION;
+
 pub fn drive_app<U: Read<u8> + Write<u8>>(uart: U) -> DriveApp<U> {
     ProfidriveApp::new(LinkedDrive::new(ModbusMaster::new(
         uart,

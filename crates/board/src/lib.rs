@@ -1,5 +1,11 @@
 //! The boards the adapter is built for, as figures: one place for every number that stands
-//! for hardware.
+//! for hardware, and the board contract every tool reads ([`BOARDS`]).
+//!
+//! A board is a row of [`BOARDS`]: its name is its firmware Cargo feature and its
+//! `firmware/src/board/` module; its [`Memory`] is the linker's `memory.x` (the firmware's
+//! build script writes it from here); its flash budget and RAM are what xtask holds the image
+//! to; its [`Runs`] says whether qemu-test runs it under QEMU (and on which machine) or a probe
+//! flashes it. README "Adding a board" lists the four places a new board touches.
 //!
 //! The firmware's board module configures its peripherals from these figures (the link UART's
 //! divisor, the clock tree), and hal-sim charges the simulated board exactly what the real one
@@ -35,11 +41,34 @@ impl Link {
     }
 }
 
+/// Where the linker puts the image: flash and RAM, origin and length.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Memory {
+    pub flash_origin: u32,
+    pub flash_bytes: u32,
+    pub ram_origin: u32,
+    pub ram_bytes: u32,
+}
+
+/// Where the image runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Runs {
+    /// Under `qemu-system-arm -machine <machine>`, with the link on its first serial port and
+    /// the drive link on its second; qemu-test runs scenarios on it.
+    Qemu { machine: &'static str },
+    /// On the board itself, flashed through a debug probe (`cargo xtask flash`).
+    Probe,
+}
+
 /// One board.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Board {
+    /// The firmware's Cargo feature and board module.
     pub name: &'static str,
+    /// The part, as probe-rs names it.
     pub chip: &'static str,
+    /// What the firmware's boot log calls the board.
+    pub description: &'static str,
     /// The MCU's core clock.
     pub mcu_clock_hz: u32,
     /// Core cycles per counted instruction, in percent. QEMU's `-icount` counts one cycle per
@@ -48,8 +77,10 @@ pub struct Board {
     /// Core cycles from an interrupt request to the handler's first instruction.
     pub irq_entry_cycles: u32,
     pub link: Link,
-    pub flash_bytes: u32,
-    pub ram_bytes: u32,
+    pub memory: Memory,
+    /// The flash the image may take: xtask fails a build over it.
+    pub flash_budget: u32,
+    pub runs: Runs,
 }
 
 impl Board {
@@ -81,6 +112,7 @@ impl Board {
 pub const STM32F103: Board = Board {
     name: "stm32f103",
     chip: "STM32F103C8",
+    description: "STM32F103C8 (production)",
     mcu_clock_hz: 72_000_000,
     cycles_per_instruction_pct: 150,
     irq_entry_cycles: 12,
@@ -90,8 +122,16 @@ pub const STM32F103: Board = Board {
         idle_bytes_after_frame: 1,
         dma_writes: true,
     },
-    flash_bytes: 64 * 1024,
-    ram_bytes: 20 * 1024,
+    memory: Memory {
+        flash_origin: 0x0800_0000,
+        flash_bytes: 64 * 1024,
+        ram_origin: 0x2000_0000,
+        ram_bytes: 20 * 1024,
+    },
+    // 48 KiB of the 64 (40 KiB before DP-V1, which took 5.3 KiB of it), so that what follows
+    // has a quarter of the chip.
+    flash_budget: 48 * 1024,
+    runs: Runs::Probe,
 };
 
 /// The QEMU board (lm3s6965evb). It runs the firmware under hal-sim, which charges time as
@@ -99,10 +139,48 @@ pub const STM32F103: Board = Board {
 pub const LM3S6965_QEMU: Board = Board {
     name: "lm3s6965",
     chip: "LM3S6965",
-    flash_bytes: 256 * 1024,
-    ram_bytes: 64 * 1024,
+    description: "lm3s6965evb (QEMU)",
+    memory: Memory {
+        flash_origin: 0,
+        flash_bytes: 256 * 1024,
+        ram_origin: 0x2000_0000,
+        ram_bytes: 64 * 1024,
+    },
+    flash_budget: 256 * 1024,
+    runs: Runs::Qemu {
+        machine: "lm3s6965evb",
+    },
     ..STM32F103
 };
+
+/// The production board's own code under QEMU's `stm32vldiscovery` (an STM32F100: the F1's
+/// USARTs at the F103's addresses, SysTick; no RCC, DMA or DWT, 128 KiB of flash and 8 KiB of
+/// RAM). The image is the production one but where the emulator forces otherwise (README
+/// "The production board under emulation"); hal-sim charges the production board's time.
+pub const STM32F103_QEMU: Board = Board {
+    name: "stm32f103-qemu",
+    description: "STM32F103C8 code on QEMU stm32vldiscovery",
+    memory: Memory {
+        flash_origin: 0x0800_0000,
+        flash_bytes: 128 * 1024,
+        ram_origin: 0x2000_0000,
+        ram_bytes: 8 * 1024,
+    },
+    // The production image's budget: this one is that image, give or take the emulator.
+    flash_budget: 48 * 1024,
+    runs: Runs::Qemu {
+        machine: "stm32vldiscovery",
+    },
+    ..STM32F103
+};
+
+/// Every board the firmware builds for, the QEMU board first (qemu-test's main image).
+pub const BOARDS: [Board; 3] = [LM3S6965_QEMU, STM32F103, STM32F103_QEMU];
+
+/// The board named `name` (its firmware feature).
+pub fn by_name(name: &str) -> Option<&'static Board> {
+    BOARDS.iter().find(|b| b.name == name)
+}
 
 /// The board whose timing the simulation charges.
 pub const PRODUCTION: Board = STM32F103;
@@ -116,6 +194,19 @@ mod tests {
         // 10 bits at 4.5 Mbit/s = 2.222 us, rounded up to whole nanoseconds.
         assert_eq!(STM32F103.link.transfer_ns(1), 2_223);
         assert_eq!(STM32F103.link.transfer_ns(45), 100_000);
+    }
+
+    #[test]
+    fn every_board_is_found_by_its_name_and_fits_its_memory() {
+        for board in &BOARDS {
+            assert_eq!(by_name(board.name), Some(board));
+            assert!(
+                board.flash_budget <= board.memory.flash_bytes,
+                "{}",
+                board.name
+            );
+        }
+        assert_eq!(by_name("no-such-board"), None);
     }
 
     #[test]

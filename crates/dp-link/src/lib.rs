@@ -98,7 +98,7 @@ impl ToAdapter<'_> {
             #[cfg(feature = "sim")]
             ToAdapter::Sim(sim::SimToAdapter::DriveBytes { now_us, .. }) => now_us,
             #[cfg(feature = "sim")]
-            ToAdapter::Sim(sim::SimToAdapter::Continue) => 0,
+            ToAdapter::Sim(sim::SimToAdapter::Continue | sim::SimToAdapter::StackPeak) => 0,
         }
     }
 }
@@ -183,6 +183,9 @@ pub mod sim {
         /// board the firmware decides this itself (its link queue is empty); under simulation
         /// only hal-sim knows whether an event reached the MCU during the last step.
         Continue,
+        /// How deep has the stack been since power-up? Answered with
+        /// [`SimFromAdapter::StackPeak`] alone (no `Done`): a measurement, not an event.
+        StackPeak,
     }
 
     #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
@@ -200,6 +203,10 @@ pub mod sim {
             drive_tx_bytes: u32,
             cycle_pending: bool,
         },
+        /// The deepest the stack has reached since power-up, and the room it has (RAM above
+        /// the statics): the stack is painted at power-up, and the lowest word no longer
+        /// holding the paint marks the peak.
+        StackPeak { used_bytes: u32, room_bytes: u32 },
     }
 }
 

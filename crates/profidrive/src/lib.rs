@@ -28,6 +28,7 @@ pub mod drive;
 pub mod faults;
 pub mod fieldbus_group;
 pub mod gsd;
+pub mod identification;
 pub mod link_diag;
 pub mod pd_access;
 pub mod pd_params;

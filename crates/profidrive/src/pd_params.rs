@@ -207,8 +207,10 @@ pub struct Parameters {
     pub hardware: [u8; 4],
     /// 963: the detected baud rate (0 = 12M .. 9 = 9.6k, 255 invalid).
     pub baud_code: u16,
-    /// 964: the device's Ident_Number.
-    pub ident_number: u16,
+    /// 964: the device identification ([`crate::identification`]): the Ident_Number at
+    /// sub-index 0 (seed 004), PROFIdrive's device type, firmware version, date and drive
+    /// objects at 1-5.
+    pub identification: [u16; crate::identification::WORDS],
     /// 965: the profile number (seed 004: 0302h, profile 3 version 2).
     pub profile_number: [u8; 2],
     /// 967/968: the control and status words in force.
@@ -259,7 +261,7 @@ impl Default for Parameters {
             alarms: [0; crate::faults::ALARMS],
             hardware: [0; 4],
             baud_code: 255,
-            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+            identification: crate::identification::DEVICE,
             profile_number: PROFILE_NUMBER.to_be_bytes(),
             control_word: 0,
             status_word: 0,
@@ -280,6 +282,9 @@ enum Slot<'a> {
     Word(&'a mut u16),
     Array(&'a mut [u16]),
     Octets(&'a [u8]),
+    /// A read-only word (sub-index 0, what a plain read returns) with more words after it at
+    /// sub-indexes 1.. (964: seed 004's word, PROFIdrive's array).
+    Record(&'a [u16]),
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -287,6 +292,7 @@ enum SlotKind {
     Word,
     Array,
     Octets,
+    Record,
 }
 
 impl Slot<'_> {
@@ -295,6 +301,7 @@ impl Slot<'_> {
             Slot::Word(_) => SlotKind::Word,
             Slot::Array(_) => SlotKind::Array,
             Slot::Octets(_) => SlotKind::Octets,
+            Slot::Record(_) => SlotKind::Record,
         }
     }
 }
@@ -423,7 +430,7 @@ const TABLE: &[Row] = &[
     Row { first: 953, last: 957, slot: |p, at| Slot::Word(&mut p.alarms[at]), rights: Rights::Read, check: any_value },
     Row { first: 961, last: 961, slot: |p, _| Slot::Octets(&p.hardware), rights: Rights::Read, check: any_value },
     Row { first: 963, last: 963, slot: |p, _| Slot::Word(&mut p.baud_code), rights: Rights::Read, check: any_value },
-    Row { first: 964, last: 964, slot: |p, _| Slot::Word(&mut p.ident_number), rights: Rights::Read, check: any_value },
+    Row { first: 964, last: 964, slot: |p, _| Slot::Record(&p.identification), rights: Rights::Read, check: any_value },
     Row { first: 965, last: 965, slot: |p, _| Slot::Octets(&p.profile_number), rights: Rights::Read, check: any_value },
     Row { first: 967, last: 967, slot: |p, _| Slot::Word(&mut p.control_word), rights: Rights::Read, check: any_value },
     Row { first: 968, last: 968, slot: |p, _| Slot::Word(&mut p.status_word), rights: Rights::Read, check: any_value },
@@ -542,6 +549,20 @@ impl Parameters {
             (Rq::ArrayCount, Slot::Array(values)) => {
                 request.reply(ResponseLabel::ArrayCount, values.len() as u32)
             }
+            (Rq::Read, Slot::Record(words)) => {
+                request.reply(ResponseLabel::Word, u32::from(words[0]))
+            }
+            (Rq::ReadArray, Slot::Record(words)) => match words.get(usize::from(request.index)) {
+                Some(v) => request.reply(ResponseLabel::ArrayWord, u32::from(*v)),
+                None => err(ErrorNumber::BadSubindex),
+            },
+            (Rq::ArrayCount, Slot::Record(words)) => {
+                request.reply(ResponseLabel::ArrayCount, words.len() as u32)
+            }
+            (
+                Rq::WriteWord | Rq::WriteDword | Rq::WriteArrayWord | Rq::WriteArrayDword,
+                Slot::Record(_),
+            ) => err(ErrorNumber::ReadOnly),
             (Rq::ReadElement | Rq::WriteElement, _) => err(ErrorNumber::UnsupportedRequest),
             (Rq::ReadArray | Rq::WriteArrayWord | Rq::WriteArrayDword | Rq::ArrayCount, _) => {
                 err(ErrorNumber::NotAnArray)
@@ -568,7 +589,7 @@ impl Parameters {
             Slot::Array(values) => values
                 .get_mut(usize::from(subindex).wrapping_sub(1))
                 .ok_or(ErrorNumber::BadSubindex)?,
-            Slot::Octets(_) => return Err(ErrorNumber::ReadOnly),
+            Slot::Octets(_) | Slot::Record(_) => return Err(ErrorNumber::ReadOnly),
         };
         if !writable {
             return Err(ErrorNumber::ReadOnly);
@@ -645,6 +666,10 @@ impl Parameters {
                 .get(usize::from(i).wrapping_sub(1))
                 .map(|v| Element::Word(*v))
                 .ok_or(ErrorNumber::BadSubindex),
+            (Slot::Record(words), i) => words
+                .get(usize::from(i))
+                .map(|v| Element::Word(*v))
+                .ok_or(ErrorNumber::BadSubindex),
             _ => Err(ErrorNumber::BadSubindex),
         }
     }
@@ -659,6 +684,7 @@ impl Parameters {
         let writable = row.rights == Rights::ReadWrite;
         Ok(match (row.slot)(self, at) {
             Slot::Array(values) => (values.len(), writable),
+            Slot::Record(words) => (words.len(), false),
             _ => (0, writable),
         })
     }
@@ -968,6 +994,45 @@ mod tests {
                 "{bad}"
             );
         }
+    }
+
+    /// Seed 004 line 1538: a read of 964 is the Ident_Number; PROFIdrive's identification
+    /// follows at sub-indexes 1-5 (the firmware's version at 2), read-only.
+    #[test]
+    fn seed_004_line_1538_964_reads_the_ident_number_and_the_identification_follows() {
+        let mut p = Parameters::default();
+        let mut drive = MockDrive::default();
+        let r = run(&mut p, &mut drive, RequestLabel::Read, 964, 0, 0);
+        assert_eq!(
+            (r.response_label(), r.value),
+            (
+                ResponseLabel::Word,
+                u32::from(dp_consts::ADAPTER_IDENT_NUMBER)
+            )
+        );
+        let r = run(&mut p, &mut drive, RequestLabel::ArrayCount, 964, 0, 0);
+        assert_eq!(
+            (r.response_label(), r.value),
+            (ResponseLabel::ArrayCount, 6)
+        );
+        let version = crate::identification::VERSION_XXYY;
+        let r = run(&mut p, &mut drive, RequestLabel::ReadArray, 964, 2, 0);
+        assert_eq!(
+            (r.response_label(), r.value),
+            (ResponseLabel::ArrayWord, u32::from(version))
+        );
+        let r = run(&mut p, &mut drive, RequestLabel::ReadArray, 964, 6, 0);
+        assert_eq!((r.response_label(), r.value), (ResponseLabel::Error, 3));
+        assert_eq!(p.read_element(964, 2, 1), Ok(Element::Word(version)));
+        assert_eq!(
+            p.read_element(964, 0, 1),
+            Ok(Element::Word(dp_consts::ADAPTER_IDENT_NUMBER))
+        );
+        for label in [RequestLabel::WriteWord, RequestLabel::WriteArrayWord] {
+            let r = run(&mut p, &mut drive, label, 964, 0, 1);
+            assert_eq!((r.response_label(), r.value), (ResponseLabel::Error, 1));
+        }
+        assert_eq!(p.identification, crate::identification::DEVICE);
     }
 
     /// Seed 004 lines 1542-1552: 970, 971 and 972 act on a 0 -> 1 change and need the motor

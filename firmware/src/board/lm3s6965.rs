@@ -11,7 +11,8 @@ pub use lm3s6965 as pac;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 
-pub const NAME: &str = "lm3s6965evb (QEMU)";
+/// This board's row of the board table.
+pub const BOARD: &board_figures::Board = &board_figures::LM3S6965_QEMU;
 
 /// QEMU's `-icount shift=7`: every instruction takes 2^7 ns of virtual time.
 const ICOUNT_NS_PER_INSTRUCTION: u32 = 128;
@@ -159,3 +160,7 @@ pub fn exit_failure() -> ! {
     #[allow(clippy::empty_loop)]
     loop {}
 }
+
+// The adapter's RTIC app on this board's interrupts: the link UART, the drive UART, and a
+// free one that runs the software tasks.
+crate::adapter_app!(UART0, UART1, GPIOA);

@@ -1,7 +1,11 @@
-//! The boards the firmware builds for; a cargo feature chooses one.
-#[cfg(all(feature = "lm3s6965", feature = "stm32f103"))]
+//! The boards the firmware builds for; a cargo feature chooses one (its name in
+//! `crates/board`'s table, which the build script also reads for the board's memory).
+#[cfg(any(
+    all(feature = "lm3s6965", feature = "stm32f1-board"),
+    all(feature = "stm32f103", feature = "stm32f103-qemu")
+))]
 compile_error!(
-    "choose one board: --features lm3s6965 or --no-default-features --features stm32f103"
+    "choose one board: --no-default-features --features <a name in crates/board's BOARDS>"
 );
 
 #[cfg(feature = "lm3s6965")]
@@ -9,9 +13,10 @@ mod lm3s6965;
 #[cfg(feature = "lm3s6965")]
 pub use lm3s6965::*;
 
-#[cfg(feature = "stm32f103")]
+// The production board, and its code under QEMU (feature stm32f103-qemu).
+#[cfg(feature = "stm32f1-board")]
 mod stm32f103;
-#[cfg(feature = "stm32f103")]
+#[cfg(feature = "stm32f1-board")]
 pub use stm32f103::*;
 
 /// Cycles counted over 100 `nop`s: the unit the firmware's time is counted in, checked once at

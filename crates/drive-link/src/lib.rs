@@ -160,6 +160,10 @@ fn drive_error(kind: ErrorKind) -> DriveError {
 }
 
 impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
+    // Always inlined: the firmware builds the adapter once, at boot, and inlined the
+    // constructors write it in place instead of into temporaries copied up a level (the boot
+    // frame is 0.45 KiB smaller, on the production board's 20 KiB).
+    #[inline(always)]
     pub fn new(uart: U, config: Config) -> ModbusMaster<U> {
         ModbusMaster {
             uart,

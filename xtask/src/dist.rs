@@ -309,6 +309,44 @@ mod tests {
         assert_eq!(entry, Some(0x0800_0101));
     }
 
+    /// An ELF for a Cortex-M with `DP_ADAPTER_VERSION` in `.rodata`, as the firmware has it.
+    fn image_with_version(version: &str) -> Vec<u8> {
+        use object::write::{Object, Symbol, SymbolSection};
+        use object::{Architecture, BinaryFormat, Endianness, SectionKind, SymbolFlags};
+        use object::{SymbolKind, SymbolScope};
+        let mut elf = Object::new(BinaryFormat::Elf, Architecture::Arm, Endianness::Little);
+        let rodata = elf.add_section(Vec::new(), b".rodata".to_vec(), SectionKind::ReadOnlyData);
+        elf.append_section_data(rodata, b"other constants", 4);
+        let mut field = [0u8; 64];
+        field[..version.len()].copy_from_slice(version.as_bytes());
+        let at = elf.append_section_data(rodata, &field, 4);
+        elf.add_symbol(Symbol {
+            name: b"DP_ADAPTER_VERSION".to_vec(),
+            value: at,
+            size: 64,
+            kind: SymbolKind::Data,
+            scope: SymbolScope::Linkage,
+            weak: false,
+            section: SymbolSection::Section(rodata),
+            flags: SymbolFlags::None,
+        });
+        elf.write().unwrap()
+    }
+
+    #[test]
+    fn the_version_is_read_back_from_its_symbol() {
+        let elf = image_with_version("v0.2.0-3-gabc1234-dirty");
+        assert_eq!(version_in_image(&elf).unwrap(), "v0.2.0-3-gabc1234-dirty");
+        // Another image (no symbol) is refused, not read as an empty version.
+        let mut other = object::write::Object::new(
+            object::BinaryFormat::Elf,
+            object::Architecture::Arm,
+            object::Endianness::Little,
+        );
+        other.add_section(Vec::new(), b".text".to_vec(), object::SectionKind::Text);
+        assert!(version_in_image(&other.write().unwrap()).is_err());
+    }
+
     #[test]
     fn the_raw_binary_fills_gaps_with_erased_flash() {
         let segments = vec![(0x100, vec![1, 2]), (0x104, vec![3])];

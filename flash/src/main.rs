@@ -339,19 +339,8 @@ fn stream_log(session: &mut Session, elf: &[u8]) -> Result<()> {
             continue;
         }
         decoder.received(&buf[..n]);
-        loop {
-            match decoder.decode() {
-                Ok(frame) => {
-                    let level = frame
-                        .level()
-                        .map_or("PRINT".to_string(), |l| format!("{l:?}").to_uppercase());
-                    println!("{level:<5} {}", frame.display_message());
-                }
-                Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
-                Err(defmt_decoder::DecodeError::Malformed) => {
-                    bail!("malformed defmt frame on RTT channel 0")
-                }
-            }
+        for line in defmt_lines::lines(&mut *decoder).context("RTT channel 0")? {
+            println!("{:<5} {}", line.level, line.message);
         }
     }
 }

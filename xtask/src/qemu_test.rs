@@ -347,22 +347,10 @@ fn run_one(
 pub(crate) fn decode(table: &defmt_decoder::Table, bytes: &[u8]) -> Result<Vec<(String, String)>> {
     let mut decoder = table.new_stream_decoder();
     decoder.received(bytes);
-    let mut lines = Vec::new();
-    loop {
-        match decoder.decode() {
-            Ok(frame) => {
-                let level = frame
-                    .level()
-                    .map_or("PRINT".to_string(), |l| format!("{l:?}").to_uppercase());
-                lines.push((level, frame.display_message().to_string()));
-            }
-            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
-            Err(defmt_decoder::DecodeError::Malformed) => {
-                bail!("malformed defmt frame: something else wrote onto the defmt stream")
-            }
-        }
-    }
-    Ok(lines)
+    Ok(defmt_lines::lines(&mut *decoder)?
+        .into_iter()
+        .map(|line| (line.level, line.message))
+        .collect())
 }
 
 /// A line diff, small and dependency-free: the expected and actual lines around the first

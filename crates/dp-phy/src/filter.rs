@@ -15,7 +15,7 @@
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FilterQ {
     pub sync: bool,
-    pub count: u8,
+    pub count: u16,
     pub out: bool,
 }
 
@@ -27,8 +27,8 @@ pub struct FilterOut {
     pub rose: bool,
 }
 
-/// The longest filter the 4-bit counter holds.
-pub const MAX_FILTER_LEN: u8 = 15;
+/// The longest filter the counter holds.
+pub const MAX_FILTER_LEN: u16 = u16::MAX - 1;
 
 /// Reset state: the line idles high.
 pub const FILTER_RESET: FilterQ = FilterQ {
@@ -39,7 +39,7 @@ pub const FILTER_RESET: FilterQ = FilterQ {
 
 /// Next state for input `line` with filter length `len`.
 #[inline(always)]
-pub fn next(line: bool, len: u8, q: &FilterQ) -> (FilterOut, FilterQ) {
+pub fn next(line: bool, len: u16, q: &FilterQ) -> (FilterOut, FilterQ) {
     debug_assert!(len <= MAX_FILTER_LEN);
     let mut d = *q;
     d.sync = line;
@@ -68,7 +68,7 @@ pub fn is_quiet(line: bool, q: &FilterQ) -> bool {
 /// meanwhile: forever when the filter has settled on `line`; while it counts towards a change,
 /// the clocks left to count (the output flips on the clock after); none while the synchroniser
 /// has not yet taken `line`.
-pub fn quiet_for(line: bool, len: u8, q: &FilterQ) -> (u64, bool) {
+pub fn quiet_for(line: bool, len: u16, q: &FilterQ) -> (u64, bool) {
     if q.sync != line {
         (0, q.out)
     } else if q.out == line {
@@ -85,14 +85,14 @@ pub fn quiet_for(line: bool, len: u8, q: &FilterQ) -> (u64, bool) {
 /// Lets `ticks` pass that [`quiet_for`] allowed for this `line`.
 pub fn skip(line: bool, ticks: u64, q: &mut FilterQ) {
     if q.sync == line && q.out != line {
-        // Bounded by quiet_for: count stays at most len, which fits a u8.
-        q.count = (u64::from(q.count) + ticks) as u8;
+        // Bounded by quiet_for: count stays at most len, which fits a u16.
+        q.count = (u64::from(q.count) + ticks) as u16;
     }
 }
 
 /// Lets `ticks` pass with a constant `line` that the synchroniser holds already, through a
 /// change of the output if one comes: returns the offset of the clock the output flips on.
-pub fn skip_through(line: bool, len: u8, ticks: u64, q: &mut FilterQ) -> Option<u64> {
+pub fn skip_through(line: bool, len: u16, ticks: u64, q: &mut FilterQ) -> Option<u64> {
     if q.sync == line && q.out != line {
         let flips_at = u64::from(len.saturating_sub(q.count));
         if ticks > flips_at {
@@ -100,21 +100,29 @@ pub fn skip_through(line: bool, len: u8, ticks: u64, q: &mut FilterQ) -> Option<
             q.count = 0;
             return Some(flips_at);
         }
-        q.count = (u64::from(q.count) + ticks) as u8;
+        q.count = (u64::from(q.count) + ticks) as u16;
     }
     None
 }
 
 /// The filter length for a bit of `clocks_per_bit` clocks: a sixteenth of a bit, at least 1.
-pub fn len_for(clocks_per_bit: u64) -> u8 {
-    (clocks_per_bit / 16).clamp(1, MAX_FILTER_LEN as u64) as u8
+pub fn len_for(clocks_per_bit: u64) -> u16 {
+    (clocks_per_bit / 16).clamp(1, 15) as u16
+}
+
+/// The receiver's filter length at a known rate: every pulse shorter than half a bit is a
+/// glitch (a real one lasts a bit at least), so it drops them all, at least 1 clock.
+pub fn glitch_len_for(clocks_per_bit: u64) -> u16 {
+    (clocks_per_bit / 2)
+        .saturating_sub(1)
+        .clamp(1, MAX_FILTER_LEN as u64) as u16
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn run(line: &[bool], len: u8) -> Vec<bool> {
+    fn run(line: &[bool], len: u16) -> Vec<bool> {
         let mut q = FILTER_RESET;
         line.iter()
             .map(|&l| {

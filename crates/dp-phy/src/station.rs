@@ -20,7 +20,7 @@ pub struct StationRxQ {
 #[derive(Clone, Debug)]
 pub struct StationRx {
     uart: UartRx,
-    filter_len: u8,
+    filter_len: u16,
     q: StationRxQ,
     now: Tick,
 }

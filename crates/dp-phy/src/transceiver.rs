@@ -14,6 +14,9 @@
 //! - While **locked**, the baud-control watchdog (ticks of 10 ms) is restarted by every good
 //!   telegram; when it expires (between telegrams: a long one at 9.6k outlasts it) the
 //!   transceiver searches again: the last resort, for a master the relock did not catch.
+//! - The receiver runs behind a glitch filter of half a bit at its rate (a real pulse lasts a
+//!   bit): glitches inside a telegram cost nothing unless they touch an edge. Its characters and
+//!   its idle line are dated back by the filter's extra delay, so times are the line's.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
 //! - A response handed to [`Transceiver::respond`] starts no earlier than min TSDR bit times after
@@ -123,7 +126,7 @@ pub struct Transceiver {
     delimiter: Delimiter,
     /// The receiver's filter, its length set for the rate (runs while a rate is known).
     filter_q: FilterQ,
-    filter_len: u8,
+    filter_len: u16,
     rx_q: RxQ,
     /// The search's own filter, always [`SEARCH_FILTER_LEN`]: it must see every rate's pulses.
     search_filter_q: FilterQ,
@@ -134,6 +137,9 @@ pub struct Transceiver {
     fallback: Option<Baud>,
     /// The receiver's line has been idle (high, no character under way) since this tick.
     quiet_since: Tick,
+    /// The last tick the transmitter drove the line: a character that started by then is the
+    /// transceiver's own echo.
+    drove_until: Tick,
     /// Idle clocks before the character the receiver is taking in.
     rx_idle_before: Tick,
     watchdog_at: Tick,
@@ -146,7 +152,7 @@ pub struct Transceiver {
 }
 
 /// The search filters only single-clock glitches: a 12 Mbit/s bit is 4 clocks at 48 MHz.
-const SEARCH_FILTER_LEN: u8 = 1;
+const SEARCH_FILTER_LEN: u16 = 1;
 
 impl Transceiver {
     pub fn new(cfg: Config) -> Self {
@@ -166,6 +172,7 @@ impl Transceiver {
             line_high_since: 0,
             fallback: None,
             quiet_since: 0,
+            drove_until: 0,
             rx_idle_before: 0,
             watchdog_at: Tick::MAX,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
@@ -311,19 +318,27 @@ impl Transceiver {
             let (f, fq) = filter::next(line, self.filter_len, &self.filter_q);
             let (c, rq) = rx.next(now, f.level, f.fell, f.fell || f.rose, &self.rx_q);
             self.filter_q = fq;
-            let echo = self.drive().is_some();
+            // The receiver's filter drops every pulse shorter than half a bit, so it holds each
+            // edge back that long: its characters and its idle line are dated `late` clocks
+            // earlier, as the search's filter dates them.
+            let late = Tick::from(self.filter_len - SEARCH_FILTER_LEN);
             if rq.active && !self.rx_q.active {
-                self.rx_idle_before = self.idle();
+                self.rx_idle_before = self.idle().saturating_sub(late);
             }
             self.rx_q = rq;
             if let Some(c) = c {
+                let c = RxChar {
+                    start: c.start.saturating_sub(late),
+                    end: c.end.saturating_sub(late),
+                    ..c
+                };
                 self.quiet_since = c.end;
-                if !echo {
+                if c.start > self.drove_until {
                     self.on_char(&c, self.rx_idle_before, &mut out);
                 }
             } else if !rq.active {
                 if !f.level {
-                    self.quiet_since = now + 1;
+                    self.quiet_since = (now + 1).saturating_sub(late);
                 }
                 let d = self.delimiter.on_idle(self.idle(), now);
                 self.on_delivery(d, &mut out);
@@ -346,6 +361,9 @@ impl Transceiver {
         }
         if let Some(tx) = &mut self.tx {
             tx.tick();
+        }
+        if self.drive().is_some() {
+            self.drove_until = now;
         }
         self.now = now + 1;
         out
@@ -441,7 +459,7 @@ impl Transceiver {
         self.tx = Some(UartTx::new(timing));
         self.pending_not_before = None;
         self.rx_q = RX_RESET;
-        self.filter_len = filter::len_for(timing.clocks_per_bit());
+        self.filter_len = filter::glitch_len_for(timing.clocks_per_bit());
         // The delimiter keeps the telegram it delivered last: a failed trial's, read after this.
         self.delimiter.tsyn_clocks = self.search.tsyn_clocks(baud);
         self.delimiter.gap_clocks = timing.clocks_for(self.cfg.max_gap_bits as u64, 1);
@@ -530,6 +548,9 @@ impl Transceiver {
         if let Some(tx) = &mut self.tx {
             tx.skip(ticks);
         }
+        if self.drive().is_some() {
+            self.drove_until = self.now - 1;
+        }
         match search_flip {
             // Rose on that clock: the clock before it was the last one low.
             Some(at) if line => self.line_high_since = self.now - ticks + at,
@@ -538,7 +559,9 @@ impl Transceiver {
             None => {}
         }
         if self.rx.is_some() && !level && !self.rx_q.active {
-            self.quiet_since = self.now;
+            self.quiet_since = self
+                .now
+                .saturating_sub(Tick::from(self.filter_len - SEARCH_FILTER_LEN));
         }
     }
 

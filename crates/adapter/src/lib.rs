@@ -176,11 +176,14 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
 
     fn host_led(&self) -> HostLed {
         use profidrive::link_diag::DriveLink;
-        match self.drive_link() {
-            DriveLink::NotYet => HostLed::Off,
-            DriveLink::Up => HostLed::Green,
-            DriveLink::LostTemporarily => HostLed::RedBlink,
-            DriveLink::LostPermanently => HostLed::Red,
+        // Lost or not is the link's error now, the Run LED's own test, so that the two change
+        // in the same status; the diagnosis (noted once a cycle) says only whether there has
+        // been an exchange yet and whether the loss has lasted a second.
+        match (self.drive_link(), self.drive_link_error()) {
+            (DriveLink::NotYet, _) => HostLed::Off,
+            (_, 0) => HostLed::Green,
+            (DriveLink::LostPermanently, _) => HostLed::Red,
+            _ => HostLed::RedBlink,
         }
     }
 

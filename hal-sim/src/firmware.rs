@@ -5,9 +5,9 @@
 //! ([`ToAdapter`]) and collects what the firmware writes while it handles it ([`Handled`]):
 //! the product's writes for the transceiver, each with the instructions the firmware had run
 //! when it sent it (the simulation-only `Done` mark), so that the caller places
-//! them in board time. The QEMU side is a localhost socket that QEMU's first serial port (the link UART) connects to;
-//! QEMU's stdout carries only the defmt stream (semihosting), collected for the caller to
-//! decode.
+//! them in board time. The QEMU side is a localhost socket that QEMU's first serial port (the
+//! link UART) connects to; QEMU's stdout carries only the defmt stream (semihosting), collected
+//! for the caller to decode.
 //!
 //! The drive UART is a second byte stream (QEMU's UART1 on a second socket). The caller reads
 //! exactly the bytes [`Handled::drive_tx_bytes`] says were sent, and writes the drive's answers

@@ -1,7 +1,8 @@
 //! 964, the device identification: what a master reads to know the adapter and its firmware.
 //!
-//! Seed 004 (line 1538) makes 964 one word, the device's Ident_Number (ABB's 0812h there, ours D7A1h), and a plain PKW read
-//! of 964 keeps returning it. PROFIdrive makes 964 an array; its sub-indexes 1-5 follow here:
+//! Seed 004 (line 1538) makes 964 one word, the device's Ident_Number (ABB's 0812h there, ours
+//! D7A1h), and a plain PKW read of 964 keeps returning it. PROFIdrive makes 964 an array; its
+//! sub-indexes 1-5 follow here:
 //! the device type, the firmware version, its date (year, then day and month), and the number
 //! of drive objects. Sub-index 0 holds the Ident_Number where PROFIdrive has the manufacturer
 //! (README, "Differences from the manuals").

@@ -20,23 +20,27 @@ use std::process::Command;
 
 /// The firmware's version: `git describe --tags --dirty` of the sources, e.g. `v0.2.0-3-gabc1234`.
 /// With no release tag yet, the Cargo version and the commit (`v0.1.0-gabc1234[-dirty]`), so the
-/// string always names the sources. Outside a git checkout, `v0.1.0-unknown`.
-pub fn firmware_version() -> Result<String> {
-    let cargo_version = env!("CARGO_PKG_VERSION");
-    if let Some(tagged) = git(&["describe", "--tags", "--match", "v[0-9]*", "--dirty"]) {
-        return Ok(tagged);
-    }
-    Ok(
+/// string always names the sources. Outside a git checkout, `v0.1.0-unknown`. Asked of git once
+/// per run: every image of one run carries the same version.
+pub fn firmware_version() -> &'static str {
+    static VERSION: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    VERSION.get_or_init(|| {
+        let cargo_version = env!("CARGO_PKG_VERSION");
+        if let Some(tagged) = git(&["describe", "--tags", "--match", "v[0-9]*", "--dirty"]) {
+            return tagged;
+        }
         match git(&["describe", "--always", "--abbrev=7", "--dirty"]) {
             Some(commit) => format!("v{cargo_version}-g{commit}"),
             None => format!("v{cargo_version}-unknown"),
-        },
-    )
+        }
+    })
 }
 
-/// The date of the sources' commit, `YYYY-MM-DD` (964.3 and 964.4), or empty outside git.
-pub fn firmware_date() -> String {
-    git(&["log", "-1", "--format=%cs"]).unwrap_or_default()
+/// The date of the sources' commit, `YYYY-MM-DD` (964.3 and 964.4), or empty outside git; asked
+/// once per run.
+pub fn firmware_date() -> &'static str {
+    static DATE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    DATE.get_or_init(|| git(&["log", "-1", "--format=%cs"]).unwrap_or_default())
 }
 
 /// What `git args` prints in the project, if git runs there and succeeds.
@@ -175,7 +179,7 @@ pub fn run(args: &[String]) -> Result<()> {
         None => project_root().join("target/dist"),
     };
     ensure_target()?;
-    let version = firmware_version()?;
+    let version = firmware_version();
     let board = PRODUCTION_IMAGE.board;
     let elf_path = build(&PRODUCTION_IMAGE)?;
     let elf = std::fs::read(&elf_path)?;
@@ -188,7 +192,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let (load_address, bin) = raw_binary(&segments);
     let entry = object::read::File::parse(&*elf)?.entry() as u32;
 
-    let dir = root.join(&version);
+    let dir = root.join(version);
     if dir.exists() {
         std::fs::remove_dir_all(&dir).with_context(|| format!("clearing {}", dir.display()))?;
     }
@@ -223,7 +227,7 @@ pub fn run(args: &[String]) -> Result<()> {
         });
     }
     let manifest = Manifest {
-        version: version.clone(),
+        version: version.to_string(),
         board: board.name.to_string(),
         chip: board.chip.to_string(),
         flash_bytes: flash,

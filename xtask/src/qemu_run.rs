@@ -72,8 +72,7 @@ struct LiveLog {
 
 impl LiveLog {
     fn new(elf: &std::path::Path) -> Result<LiveLog> {
-        let table = defmt_decoder::Table::parse(&std::fs::read(elf)?)?
-            .context("the firmware image has no defmt table")?;
+        let table = crate::qemu_test::defmt_table(elf)?;
         Ok(LiveLog {
             table,
             bytes: 0,

@@ -59,6 +59,21 @@ impl Image {
     }
 }
 
+/// An image built: where its ELF is, its static RAM, and its defmt table where it runs under
+/// QEMU (parsed once for all its runs).
+struct Built {
+    image: Image,
+    elf: PathBuf,
+    statics: u64,
+    table: Option<defmt_decoder::Table>,
+}
+
+/// The defmt table of the image at `elf`.
+pub(crate) fn defmt_table(elf: &Path) -> Result<defmt_decoder::Table> {
+    defmt_decoder::Table::parse(&std::fs::read(elf)?)?
+        .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))
+}
+
 /// The QEMU board's image: every scenario runs on it.
 pub(crate) const QEMU_IMAGE: Image = Image::of(&board::LM3S6965_QEMU);
 /// The production image, flashed by `cargo xtask flash` and bundled by `cargo xtask dist`.
@@ -75,9 +90,9 @@ pub fn run(args: &[String]) -> Result<()> {
     ensure_target()?;
     let qemu = ensure_qemu()?;
     let mut failures = 0usize;
-    let version = crate::dist::firmware_version()?;
+    let version = crate::dist::firmware_version();
     println!("firmware images ({version}):");
-    let mut elves = Vec::new();
+    let mut built = Vec::new();
     for board in &board::BOARDS {
         let image = Image::of(board);
         let elf = build(&image)?;
@@ -96,7 +111,14 @@ pub fn run(args: &[String]) -> Result<()> {
         if !fits {
             failures += 1;
         }
-        elves.push((image, elf, ram));
+        // Parsed once per image, for every run of it.
+        let table = image.machine().map(|_| defmt_table(&elf)).transpose()?;
+        built.push(Built {
+            image,
+            elf,
+            statics: ram,
+            table,
+        });
     }
     println!("failure paths and boots:");
     for (feature, want) in SELFTESTS {
@@ -110,12 +132,10 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     // Every QEMU board but the main one boots before its scenarios: its clock start-up, its link
     // UART both ways and its cycle counter, with no Boot (which builds the adapter).
-    for (image, elf, _) in elves
-        .iter()
-        .filter(|(image, _, _)| image.machine().is_some() && image.board != QEMU_IMAGE.board)
-    {
-        let name = image.board.name;
-        match smoke(&qemu, image, elf, &version) {
+    for b in built.iter().filter(|b| b.image.board != QEMU_IMAGE.board) {
+        let Some(table) = &b.table else { continue };
+        let name = b.image.board.name;
+        match smoke(&qemu, &b.image, &b.elf, table, version) {
             // Its RAM is the emulator's, not the product's: reported, not failed (as `ram:`).
             Ok((line, true)) => println!("  {name:<19} ok: {line}"),
             Ok((line, false)) => println!("  {name:<19} DOES NOT FIT: {line}"),
@@ -130,11 +150,12 @@ pub fn run(args: &[String]) -> Result<()> {
     // production board's code too, named `<board>/<scenario>`, with goldens in a folder of the
     // board's name.
     let expected_dir = project_root().join("ci/expected/qemu-test");
-    let mut runs: Vec<(String, &Image, &Path, &str, PathBuf)> = Vec::new();
-    for (image, elf, _) in elves
-        .iter()
-        .filter(|(image, _, _)| image.machine().is_some())
-    {
+    let mut runs: Vec<(String, &Built, &str, PathBuf)> = Vec::new();
+    for b in &built {
+        if b.table.is_none() {
+            continue;
+        }
+        let image = &b.image;
         let main = image.board == QEMU_IMAGE.board;
         for name in scenarios::names() {
             if !(main || name.starts_with("autodetect-") || name == STM32_QEMU_DRIVE_SCENARIO) {
@@ -149,7 +170,7 @@ pub fn run(args: &[String]) -> Result<()> {
                 )
             };
             if only.is_none_or(|o| row == o) {
-                runs.push((row, image, elf, name, dir));
+                runs.push((row, b, name, dir));
             }
         }
     }
@@ -159,14 +180,12 @@ pub fn run(args: &[String]) -> Result<()> {
     let started = Instant::now();
     let mut rows: Vec<(String, bool, Option<Outcome>)> = Vec::new();
     let mut not_run = Vec::new();
-    for (i, (row, image, elf, name, dir)) in runs.iter().enumerate() {
+    for (i, (row, b, name, dir)) in runs.iter().enumerate() {
+        let image = &b.image;
         // A board whose RAM cannot hold the statics and the stack the QEMU board measured
         // would only crash: say what it needs instead.
         if image.board != QEMU_IMAGE.board {
-            let statics = elves
-                .iter()
-                .find(|(e, _, _)| e.board == image.board)
-                .map_or(0, |(_, _, ram)| *ram);
+            let statics = b.statics;
             if let Some((peak, at)) = stack_peak(&rows) {
                 let need = statics + peak;
                 let has = u64::from(image.board.memory.ram_bytes);
@@ -181,7 +200,7 @@ pub fn run(args: &[String]) -> Result<()> {
             }
         }
         let t0 = Instant::now();
-        let result = run_one(&qemu, image, elf, name, dir, &version, overwrite);
+        let result = run_one(&qemu, b, name, dir, version, overwrite);
         let (ok, detail, outcome) = match result {
             Ok((outcome, golden)) => {
                 let mut problems: Vec<String> = outcome
@@ -216,7 +235,7 @@ pub fn run(args: &[String]) -> Result<()> {
     for line in &not_run {
         println!("{line}");
     }
-    failures += check_ram(&rows, &elves);
+    failures += check_ram(&rows, &built);
     for (_, _, outcome) in &rows {
         for line in outcome.iter().flat_map(|o| &o.report) {
             println!("{line}");
@@ -238,9 +257,13 @@ pub fn run(args: &[String]) -> Result<()> {
 /// calibrated cycle counter (100 `nop`s count 95 to 110), says Ready over its link UART, and
 /// answers a stack measurement over it, which takes a frame in through the UART's interrupt.
 /// Returns what it saw, and whether the stack kept clear of the statics.
-fn smoke(qemu: &Path, image: &Image, elf: &Path, version: &str) -> Result<(String, bool)> {
-    let table = defmt_decoder::Table::parse(&std::fs::read(elf)?)?
-        .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
+fn smoke(
+    qemu: &Path,
+    image: &Image,
+    elf: &Path,
+    table: &defmt_decoder::Table,
+    version: &str,
+) -> Result<(String, bool)> {
     let machine = image
         .machine()
         .context("the image does not run under QEMU")?;
@@ -249,7 +272,7 @@ fn smoke(qemu: &Path, image: &Image, elf: &Path, version: &str) -> Result<(Strin
         .stack_peak()
         .context("the stack measurement over the link")?;
     let streams = firmware.stop();
-    let lines = decode(&table, streams.last().map_or(&[][..], |s| s.as_slice()))?;
+    let lines = decode(table, streams.last().map_or(&[][..], |s| s.as_slice()))?;
     let boot = format!("boot: {}, firmware {version}", image.board.description);
     if !lines.iter().any(|(_, m)| *m == boot) {
         bail!("no boot line {boot:?} in {lines:?}");
@@ -295,12 +318,12 @@ fn stack_peak(rows: &[(String, bool, Option<Outcome>)]) -> Option<(u64, &str)> {
 /// Statics and the deepest stack measured, against each board's RAM: one line a board, and
 /// the number that do not fit (the production board's stack is the QEMU board's, the same
 /// code but for the board module).
-fn check_ram(rows: &[(String, bool, Option<Outcome>)], elves: &[(Image, PathBuf, u64)]) -> usize {
+fn check_ram(rows: &[(String, bool, Option<Outcome>)], built: &[Built]) -> usize {
     let Some((peak, at)) = stack_peak(rows) else {
         return 0;
     };
     let mut over = 0;
-    for (image, _, statics) in elves {
+    for Built { image, statics, .. } in built {
         let has = u64::from(image.board.memory.ram_bytes);
         let need = statics + peak;
         let fits = need <= has;
@@ -326,8 +349,7 @@ fn selftest(qemu: &Path, feature: &'static str, want: &str) -> Result<String> {
         ..QEMU_IMAGE
     };
     let elf = build(&image)?;
-    let table = defmt_decoder::Table::parse(&std::fs::read(&elf)?)?
-        .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
+    let table = defmt_table(&elf)?;
     let machine = image.machine().expect("the QEMU board runs under QEMU");
     let mut firmware = Qemu::start(qemu, &elf, machine).context("starting QEMU")?;
     let status = firmware
@@ -353,19 +375,21 @@ fn selftest(qemu: &Path, feature: &'static str, want: &str) -> Result<String> {
 /// Runs one scenario in its own QEMU; returns the outcome and any golden-file problems.
 fn run_one(
     qemu: &Path,
-    image: &Image,
-    elf: &Path,
+    b: &Built,
     name: &str,
     expected_dir: &Path,
     version: &str,
     overwrite: bool,
 ) -> Result<(Outcome, Vec<String>)> {
-    let table = defmt_decoder::Table::parse(&std::fs::read(elf)?)?
-        .ok_or_else(|| anyhow!("no defmt table in {}", elf.display()))?;
-    let machine = image
+    let table = b
+        .table
+        .as_ref()
+        .context("the image does not run under QEMU")?;
+    let machine = b
+        .image
         .machine()
         .context("the image does not run under QEMU")?;
-    let firmware = Qemu::start(qemu, elf, machine).context("starting QEMU")?;
+    let firmware = Qemu::start(qemu, &b.elf, machine).context("starting QEMU")?;
     let (outcome, firmware) = scenarios::run(name, firmware)?;
     let streams = firmware.stop();
     let mut text = String::new();
@@ -376,7 +400,7 @@ fn run_one(
     let mut problems = Vec::new();
     for (run, bytes) in streams.iter().enumerate() {
         text.push_str(&format!("--- firmware log, power-up {} ---\n", run + 1));
-        for (level, message) in decode(&table, bytes)? {
+        for (level, message) in decode(table, bytes)? {
             if level == "ERROR" {
                 problems.push(format!("firmware error: {message}"));
             }
@@ -591,7 +615,7 @@ pub(crate) fn ensure_qemu() -> Result<PathBuf> {
 /// Builds an image (release) in a target directory of its own name, with the version from
 /// `git describe`; returns the ELF.
 pub(crate) fn build(image: &Image) -> Result<PathBuf> {
-    let status = firmware_cargo("build", image)?
+    let status = firmware_cargo("build", image)
         .arg("--quiet")
         .status()
         .context("running cargo for the firmware")?;
@@ -610,7 +634,7 @@ pub fn clippy_firmware(args: &[String]) -> Result<()> {
     ensure_target()?;
     for board in &board::BOARDS {
         println!("clippy: firmware for {}", board.name);
-        let status = firmware_cargo("clippy", &Image::of(board))?
+        let status = firmware_cargo("clippy", &Image::of(board))
             .args(["--", "-D", "warnings"])
             .status()
             .context("running cargo clippy for the firmware")?;
@@ -627,7 +651,7 @@ fn firmware_target_dir(image: &Image) -> PathBuf {
 
 /// `cargo <subcommand> --release` for `image`'s board and features in its target directory,
 /// with the firmware's version and date.
-fn firmware_cargo(subcommand: &str, image: &Image) -> Result<Command> {
+fn firmware_cargo(subcommand: &str, image: &Image) -> Command {
     let mut features = image.board.name.to_string();
     if let Some(extra) = image.extra_feature {
         features = format!("{features},{extra}");
@@ -644,9 +668,9 @@ fn firmware_cargo(subcommand: &str, image: &Image) -> Result<Command> {
         .arg(&features)
         .arg("--target-dir")
         .arg(firmware_target_dir(image))
-        .env("DP_ADAPTER_VERSION", crate::dist::firmware_version()?)
+        .env("DP_ADAPTER_VERSION", crate::dist::firmware_version())
         .env("DP_ADAPTER_DATE", crate::dist::firmware_date());
-    Ok(cargo)
+    cargo
 }
 
 /// Flash (code, read-only data, initial data) and static RAM (data, bss) of an image.

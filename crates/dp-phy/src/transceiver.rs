@@ -271,6 +271,13 @@ impl Transceiver {
         self.tx.as_ref().and_then(|t| t.drive())
     }
 
+    /// The receiver's filter drops every pulse shorter than half a bit, so it holds each edge
+    /// back that long: its characters and its idle line are dated this many clocks earlier, as
+    /// the search's filter dates them.
+    fn rx_late(&self) -> Tick {
+        Tick::from(self.filter_len - SEARCH_FILTER_LEN)
+    }
+
     fn idle(&self) -> Tick {
         self.now.saturating_sub(self.quiet_since)
     }
@@ -318,10 +325,7 @@ impl Transceiver {
             let (f, fq) = filter::next(line, self.filter_len, &self.filter_q);
             let (c, rq) = rx.next(now, f.level, f.fell, f.fell || f.rose, &self.rx_q);
             self.filter_q = fq;
-            // The receiver's filter drops every pulse shorter than half a bit, so it holds each
-            // edge back that long: its characters and its idle line are dated `late` clocks
-            // earlier, as the search's filter dates them.
-            let late = Tick::from(self.filter_len - SEARCH_FILTER_LEN);
+            let late = self.rx_late();
             if rq.active && !self.rx_q.active {
                 self.rx_idle_before = self.idle().saturating_sub(late);
             }
@@ -559,9 +563,7 @@ impl Transceiver {
             None => {}
         }
         if self.rx.is_some() && !level && !self.rx_q.active {
-            self.quiet_since = self
-                .now
-                .saturating_sub(Tick::from(self.filter_len - SEARCH_FILTER_LEN));
+            self.quiet_since = self.now.saturating_sub(self.rx_late());
         }
     }
 

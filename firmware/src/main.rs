@@ -26,6 +26,10 @@ mod drive_uart;
 mod ram_test;
 
 use defmt::error;
+#[cfg(feature = "adapter-in-image")]
+use static_cell::ConstStaticCell;
+#[cfg(not(feature = "adapter-in-image"))]
+use static_cell::StaticCell;
 
 #[cfg(feature = "stm32f103")]
 use defmt_rtt as _;
@@ -55,11 +59,38 @@ static DP_ADAPTER_VERSION: [u8; 64] = {
     bytes
 };
 
-/// Bytes the link queue holds: four maximal frames (events queue while the drive cycle runs).
-const LINK_QUEUE_LEN: usize = 4 * dp_link::MAX_FRAME_LEN;
+/// Bytes the link queue holds: the board's number of maximal frames.
+const LINK_QUEUE_LEN: usize = board::BOARD.link_queue_frames as usize * dp_link::MAX_FRAME_LEN;
 
 /// The drive application on the drive UART.
 type DriveApp = adapter::DriveApp<drive_uart::DriveUart>;
+
+/// The adapter, powered up: built at the Boot into its place in RAM (zeroed at reset, not part
+/// of the image), once.
+#[cfg(not(feature = "adapter-in-image"))]
+#[inline(always)]
+fn power_up(switch: u8, nv: Option<dp_link::NvRecord>) -> &'static mut adapter::Adapter<DriveApp> {
+    static ADAPTER: StaticCell<adapter::Adapter<DriveApp>> = StaticCell::new();
+    let adapter = ADAPTER.init_with(|| {
+        adapter::Adapter::unpowered(adapter::drive_app(drive_uart::DriveUart::new()))
+    });
+    adapter.power_up(switch, nv);
+    adapter
+}
+
+/// The adapter, powered up: the image holds it unpowered as initial data, which the reset
+/// copies into RAM, and the Boot powers it up in place, once. Built at the Boot it would take
+/// about 2 KiB of stack for a moment, which a board with 8 KiB of RAM does not have (README
+/// "The production board under emulation"); the price is its 5 KiB in flash.
+#[cfg(feature = "adapter-in-image")]
+fn power_up(switch: u8, nv: Option<dp_link::NvRecord>) -> &'static mut adapter::Adapter<DriveApp> {
+    static ADAPTER: ConstStaticCell<adapter::Adapter<DriveApp>> = ConstStaticCell::new(
+        adapter::Adapter::unpowered(adapter::drive_app(drive_uart::DriveUart::new())),
+    );
+    let adapter = ADAPTER.take();
+    adapter.power_up(switch, nv);
+    adapter
+}
 
 /// The failure paths, proven by `cargo xtask qemu-test` on images built for it.
 fn selftest() {
@@ -117,9 +148,8 @@ macro_rules! adapter_app {
 
             #[local]
             struct Local {
-                /// The adapter after the first Boot. Set up here, not as a task-local with an
-                /// initial value: that would keep a copy of its initial image in flash.
-                adapter: Option<Adapter<crate::DriveApp>>,
+                /// The adapter, from the Boot on (`crate::power_up`).
+                adapter: Option<&'static mut Adapter<crate::DriveApp>>,
                 link_rx: board::Uart,
                 link_tx: Option<board::Uart>,
                 producer: Producer<'static, { crate::LINK_QUEUE_LEN }>,
@@ -250,11 +280,11 @@ macro_rules! adapter_app {
             /// reached the MCU during the last step.
             #[cfg(not(feature = "sim"))]
             fn cycle_step(
-                slot: &mut Option<Adapter<crate::DriveApp>>,
+                slot: &mut Option<&'static mut Adapter<crate::DriveApp>>,
                 tx: &mut board::Uart,
                 frame: &mut [u8; dp_link::MAX_FRAME_LEN],
             ) -> bool {
-                let Some(adapter) = slot.as_mut().filter(|a| a.cycle_pending()) else {
+                let Some(adapter) = slot.as_deref_mut().filter(|a| a.cycle_pending()) else {
                     return false;
                 };
                 let before = (adapter.slave().state(), adapter.slave().address());
@@ -270,7 +300,7 @@ macro_rules! adapter_app {
 
             #[cfg(feature = "sim")]
             fn cycle_step(
-                _: &mut Option<Adapter<crate::DriveApp>>,
+                _: &mut Option<&'static mut Adapter<crate::DriveApp>>,
                 _: &mut board::Uart,
                 _: &mut [u8; dp_link::MAX_FRAME_LEN],
             ) -> bool {
@@ -290,7 +320,7 @@ macro_rules! adapter_app {
             }
 
             fn handle(
-                slot: &mut Option<Adapter<crate::DriveApp>>,
+                slot: &mut Option<&'static mut Adapter<crate::DriveApp>>,
                 tx: &mut board::Uart,
                 frame: &mut [u8; dp_link::MAX_FRAME_LEN],
                 message: &ToAdapter,
@@ -324,7 +354,7 @@ macro_rules! adapter_app {
                 if let ToAdapter::Boot { switch, nv, .. } = *message {
                     boot(slot, switch, nv);
                 }
-                let Some(adapter) = slot.as_mut() else {
+                let Some(adapter) = slot.as_deref_mut() else {
                     warn!("link: message before Boot");
                     return;
                 };
@@ -368,13 +398,21 @@ macro_rules! adapter_app {
                 log_changes(before, adapter);
             }
 
-            /// Builds the adapter into its slot. Never inlined: building it takes about 2 KiB of
-            /// stack for a moment, and inlined into the link task that frame would be taken at
-            /// every dispatch (3.5 KiB then, against 0.5 KiB now), not only at boot.
+            /// Powers the adapter up, once: the transceiver sends one Boot per power-up. Never
+            /// inlined: where the adapter is built at Boot that takes about 2 KiB of stack for
+            /// a moment, and inlined into the link task that frame would be taken at every
+            /// dispatch (3.5 KiB then, against 0.5 KiB now), not only at boot.
             #[inline(never)]
-            fn boot(slot: &mut Option<Adapter<crate::DriveApp>>, switch: u8, nv: Option<dp_link::NvRecord>) {
-                let app = adapter::drive_app(crate::drive_uart::DriveUart::new());
-                let adapter = Adapter::boot(switch, nv, app);
+            fn boot(
+                slot: &mut Option<&'static mut Adapter<crate::DriveApp>>,
+                switch: u8,
+                nv: Option<dp_link::NvRecord>,
+            ) {
+                if slot.is_some() {
+                    warn!("link: a second Boot, ignored");
+                    return;
+                }
+                let adapter = crate::power_up(switch, nv);
                 let a = adapter.addressing();
                 info!("adapter: switch {=u8}, address {=u8} from {}", switch, a.address, a.source);
                 *slot = Some(adapter);

@@ -57,14 +57,15 @@ pub type DriveApp<U> = ProfidriveApp<LinkedDrive<U>>;
 pub use profidrive::identification::VERSION as FIRMWARE_VERSION;
 
 /// The drive application: PROFIdrive over the Modbus RTU link to seed 000's drive on `uart`.
+/// A constant where `uart` is one (see [`Adapter::unpowered`]).
 // Always inlined, with the constructors it calls: the firmware builds the adapter once, at
 // boot, and inlined they write it in place instead of into temporaries copied up a level (the
 // boot frame is 0.45 KiB smaller, on the production board's 20 KiB).
 #[inline(always)]
-pub fn drive_app<U: Read<u8> + Write<u8>>(uart: U) -> DriveApp<U> {
+pub const fn drive_app<U: Read<u8> + Write<u8>>(uart: U) -> DriveApp<U> {
     ProfidriveApp::new(LinkedDrive::new(ModbusMaster::new(
         uart,
-        drive_link::Config::default(),
+        drive_link::Config::DEFAULT,
     )))
 }
 
@@ -308,7 +309,7 @@ pub fn ram_fault_status() -> Status {
 }
 
 /// Resolves the station address at power-up from the switch and the storage.
-pub fn addressing(switch: u8, nv: Option<NvRecord>) -> Addressing {
+pub const fn addressing(switch: u8, nv: Option<NvRecord>) -> Addressing {
     match switch {
         1..=SWITCH_MAX_ADDRESS => Addressing {
             address: switch,
@@ -323,12 +324,14 @@ pub fn addressing(switch: u8, nv: Option<NvRecord>) -> Addressing {
             nv_write: Some(FACTORY_DEFAULTS),
         },
         _ => match nv {
-            Some(r) if (1..=dp_consts::MAX_STATION_ADDRESS).contains(&r.address) => Addressing {
-                address: r.address,
-                no_add_chg: r.no_add_chg,
-                source: AddressSource::Storage,
-                nv_write: None,
-            },
+            Some(r) if r.address >= 1 && r.address <= dp_consts::MAX_STATION_ADDRESS => {
+                Addressing {
+                    address: r.address,
+                    no_add_chg: r.no_add_chg,
+                    source: AddressSource::Storage,
+                    nv_write: None,
+                }
+            }
             _ => Addressing {
                 address: FACTORY_DEFAULTS.address,
                 no_add_chg: false,
@@ -468,13 +471,26 @@ impl Parts {
 }
 
 /// What the transceiver was last given, so that only changes cross the link.
-#[derive(Default)]
 struct Written {
     regs: Option<Regs>,
     inputs: Option<Buffer>,
     diag: Option<Buffer>,
     cfg: Option<Buffer>,
     status: Option<Status>,
+}
+
+impl Written {
+    /// Nothing given yet. A function, not a constant: a constant is an 832-byte image in flash
+    /// that a board building the adapter at Boot would copy.
+    const fn none() -> Written {
+        Written {
+            regs: None,
+            inputs: None,
+            diag: None,
+            cfg: None,
+            status: None,
+        }
+    }
 }
 
 /// `fresh`, if `written` did not hold it yet (`written` now does).
@@ -484,7 +500,7 @@ fn take_if_changed<'a>(written: &'a mut Option<Buffer>, fresh: &[u8]) -> Option<
     }
     let held = written.get_or_insert_with(Buffer::new);
     held.clear();
-    // A buffer never outgrows the responder's (`BUFFER_LEN`): the slave writes into scratch.
+    // A buffer never outgrows the responder's (`BUFFER_LEN`): the slave's are no longer.
     let _ = held.extend_from_slice(fresh);
     Some(held)
 }
@@ -511,17 +527,26 @@ pub struct Adapter<A> {
     /// The last event handled.
     seen: u32,
     written: Written,
-    scratch: [u8; BUFFER_LEN],
 }
 
 impl<A: Application + Background> Adapter<A> {
     /// Power-up with the switch reading and the storage contents.
     // Always inlined, with the constructors it calls: see `drive_app`.
     #[inline(always)]
-    pub fn boot(switch: u8, nv: Option<NvRecord>, mut app: A) -> Adapter<A> {
-        let addressing = addressing(switch, nv);
-        app.station(addressing.address);
-        app.node_address_writable(addressing.source.parameter_may_set());
+    pub fn boot(switch: u8, nv: Option<NvRecord>, app: A) -> Adapter<A> {
+        let mut adapter = Adapter::unpowered(app);
+        adapter.power_up(switch, nv);
+        adapter
+    }
+
+    /// The adapter before power-up ([`Adapter::power_up`] once, before any event): a constant
+    /// where `app` is one, so that a board short of RAM may hold it as its initial image rather
+    /// than build it at Boot (the emulated production board: README "The production board
+    /// under emulation").
+    #[inline(always)]
+    pub const fn unpowered(app: A) -> Adapter<A> {
+        // What the switch and the storage decide is set again at power-up.
+        let addressing = addressing(0, None);
         let slave = Slave::new(
             Config {
                 address: addressing.address,
@@ -531,7 +556,7 @@ impl<A: Application + Background> Adapter<A> {
             },
             Recording {
                 inner: app,
-                nv_write: addressing.nv_write,
+                nv_write: None,
                 last_record: None,
                 outputs_applied: 0,
                 fail_safes: 0,
@@ -551,9 +576,26 @@ impl<A: Application + Background> Adapter<A> {
             station_told: addressing.address,
             now_us: 0,
             seen: 0,
-            written: Written::default(),
-            scratch: [0; BUFFER_LEN],
+            written: Written::none(),
         }
+    }
+
+    /// Power-up with the switch reading and the storage contents, in place: the station
+    /// address and where it came from, and what the application is told of it.
+    pub fn power_up(&mut self, switch: u8, nv: Option<NvRecord>) {
+        let addressing = addressing(switch, nv);
+        self.slave.configure(Config {
+            address: addressing.address,
+            ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
+            no_add_chg: addressing.no_add_chg,
+            dpv1_status_bytes: false,
+        });
+        self.slave.app_mut().nv_write = addressing.nv_write;
+        self.addressing = addressing;
+        self.station_told = addressing.address;
+        let app = self.app_mut();
+        app.station(addressing.address);
+        app.node_address_writable(addressing.source.parameter_may_set());
     }
 
     pub fn addressing(&self) -> Addressing {
@@ -793,27 +835,23 @@ impl<A: Application + Background> Adapter<A> {
         parts: Parts,
         out: &mut dyn FnMut(Out),
     ) {
-        // Each buffer is built in the scratch area and compared in place: copying a whole
-        // buffer per event was a third of the MCU's work on a Data_Exchange.
+        // Each buffer is compared where the slave built it: copying a whole buffer per event
+        // was a third of the MCU's work on a Data_Exchange.
         if parts.inputs {
-            let len = self.slave.write_inputs(now, &mut self.scratch);
-            if let Some(inputs) = take_if_changed(&mut self.written.inputs, &self.scratch[..len]) {
+            let inputs = self.slave.inputs_now(now);
+            if let Some(inputs) = take_if_changed(&mut self.written.inputs, inputs) {
                 out(Out::Write(FromAdapter::Inputs(inputs)));
             }
         }
         if parts.diag {
-            let (len, new) = self.slave.write_diag(&mut self.scratch);
-            let changed = take_if_changed(&mut self.written.diag, &self.scratch[..len]).is_some();
+            let (diag, new) = self.slave.diag_now();
+            let changed = take_if_changed(&mut self.written.diag, diag).is_some();
             if new || changed {
-                out(Out::Write(FromAdapter::Diag {
-                    new,
-                    bytes: &self.scratch[..len],
-                }));
+                out(Out::Write(FromAdapter::Diag { new, bytes: diag }));
             }
         }
         if parts.cfg {
-            let len = self.slave.write_cfg(&mut self.scratch);
-            if let Some(cfg) = take_if_changed(&mut self.written.cfg, &self.scratch[..len]) {
+            if let Some(cfg) = take_if_changed(&mut self.written.cfg, self.slave.cfg_now()) {
                 out(Out::Write(FromAdapter::Cfg(cfg)));
             }
         }
@@ -994,6 +1032,81 @@ mod tests {
             (a.address, a.source, a.nv_write),
             (126, AddressSource::FactoryReset, Some(FACTORY_DEFAULTS))
         );
+    }
+
+    /// A drive UART that a constant can hold: it never receives and drops what it sends.
+    struct QuietUart;
+
+    impl embedded_hal_nb::serial::ErrorType for QuietUart {
+        type Error = embedded_hal_nb::serial::ErrorKind;
+    }
+
+    impl Read<u8> for QuietUart {
+        fn read(&mut self) -> embedded_hal_nb::nb::Result<u8, Self::Error> {
+            Err(embedded_hal_nb::nb::Error::WouldBlock)
+        }
+    }
+
+    impl Write<u8> for QuietUart {
+        fn write(&mut self, _: u8) -> embedded_hal_nb::nb::Result<(), Self::Error> {
+            Ok(())
+        }
+
+        fn flush(&mut self) -> embedded_hal_nb::nb::Result<(), Self::Error> {
+            Ok(())
+        }
+    }
+
+    impl CountsSent for QuietUart {
+        fn bytes_sent(&self) -> u32 {
+            0
+        }
+    }
+
+    /// The drive application's adapter as a board holds it in its image (firmware feature
+    /// `adapter-in-image`): this constant is the proof that it can be one.
+    const UNPOWERED: Adapter<DriveApp<QuietUart>> = Adapter::unpowered(drive_app(QuietUart));
+
+    /// Powered up in place, the image takes the address seed 000's switch and storage give,
+    /// refuses or allows Set_Slave_Add and the 918 write as they say, and shows the address in
+    /// 918 and in the registers of its first write.
+    #[test]
+    fn the_unpowered_image_powers_up_at_the_address_the_switch_gives() {
+        let stored = Some(NvRecord {
+            address: 42,
+            no_add_chg: true,
+        });
+        // (switch, storage) -> (address, No_Add_Chg, 918 writable, record written)
+        let cases = [
+            ((17, stored), (17, true, false, None)),
+            ((0, stored), (42, true, true, None)),
+            ((0, None), (126, false, true, None)),
+            ((99, stored), (126, false, false, Some(FACTORY_DEFAULTS))),
+        ];
+        for ((switch, nv), (address, no_add_chg, writable, record)) in cases {
+            let mut adapter = UNPOWERED;
+            adapter.power_up(switch, nv);
+            let boot = ToAdapter::Boot {
+                seq: 1,
+                now_us: 0,
+                switch,
+                nv,
+            };
+            let w = handle(&mut adapter, &boot);
+            let regs = w.regs.last().copied().unwrap();
+            let params = adapter.app().params();
+            assert_eq!(
+                (
+                    regs.address,
+                    regs.no_add_chg,
+                    params.node_address,
+                    params.node_address_writable,
+                    w.status.iter().find_map(|s| s.nv_write),
+                ),
+                (address, no_add_chg, u16::from(address), writable, record),
+                "switch {switch}, storage {nv:?}"
+            );
+        }
     }
 
     fn telegram(seq: u32, bytes: &[u8]) -> ToAdapter<'_> {

@@ -139,7 +139,7 @@ impl<A: Application> Slave<A> {
     // constructors write it in place instead of into temporaries copied up a level (the boot
     // frame is 0.45 KiB smaller, on the production board's 20 KiB).
     #[inline(always)]
-    pub fn new(config: Config, app: A) -> Slave<A> {
+    pub const fn new(config: Config, app: A) -> Slave<A> {
         Slave {
             app,
             address: config.address,
@@ -166,12 +166,24 @@ impl<A: Application> Slave<A> {
             clear_by_command: false,
             clear_by_empty_outputs: false,
             cfg: heapless::Vec::new(),
-            io: IoSizes::default(),
+            io: IoSizes {
+                inputs: 0,
+                outputs: 0,
+            },
             outputs: [0; MAX_IO_LEN],
             frozen_inputs: [0; MAX_IO_LEN],
             last: None,
             payload_buffer: [0; MAX_DATA_UNIT_LEN],
         }
+    }
+
+    /// The configuration at power-up, for a slave built before it was known (as a constant):
+    /// before any telegram.
+    pub fn configure(&mut self, config: Config) {
+        self.address = config.address;
+        self.ident_number = config.ident_number;
+        self.no_add_chg = config.no_add_chg;
+        self.dpv1_status_bytes = config.dpv1_status_bytes;
     }
 
     pub fn state(&self) -> State {
@@ -246,38 +258,32 @@ impl<A: Application> Slave<A> {
     }
 
     /// The diagnosis as its owner (or any master, while none owns the slave) reads it now,
-    /// into `out`: its length, and whether it is new since the last call (Data_Exchange
-    /// answers DH until it is read). For a transceiver that answers Slave_Diag from a buffer.
-    pub fn write_diag(&mut self, out: &mut [u8]) -> (usize, bool) {
+    /// and whether it is new since the last call (Data_Exchange answers DH until it is read).
+    /// For a transceiver that answers Slave_Diag from a buffer.
+    ///
+    /// This and [`Self::inputs_now`] build in the response buffer, which also holds the
+    /// response a repetition gets from [`Self::process`]: a transceiver answers repetitions
+    /// itself and hands over with [`Self::process_fresh`], so nothing stored is lost. Built in
+    /// place, they cost the caller no buffer of its own and no copy.
+    pub fn diag_now(&mut self) -> (&[u8], bool) {
         let new = self.app.diag_changed() || self.diag_pending;
         self.diag_pending = false;
         let len = self.diag_payload(false);
-        let len = len.min(out.len());
-        out[..len].copy_from_slice(&self.payload_buffer[..len]);
-        (len, new)
+        (&self.payload_buffer[..len], new)
     }
 
-    /// The configuration Get_Cfg answers with now, into `out`; its length.
-    pub fn write_cfg(&self, out: &mut [u8]) -> usize {
-        let cfg = self.current_cfg();
-        let len = cfg.len().min(out.len());
-        out[..len].copy_from_slice(&cfg[..len]);
-        len
-    }
-
-    /// The inputs Data_Exchange and Rd_Inp answer with now (the frozen ones under Freeze),
-    /// into `out`; their length (0 outside Data_Exch).
-    pub fn write_inputs(&mut self, now: Instant, out: &mut [u8]) -> usize {
+    /// The inputs Data_Exchange and Rd_Inp answer with now (the frozen ones under Freeze);
+    /// none outside Data_Exch. See [`Self::diag_now`] for the buffer they are built in.
+    pub fn inputs_now(&mut self, now: Instant) -> &[u8] {
         if self.state != State::DataExch {
-            return 0;
+            return &[];
         }
-        let len = self.io.inputs.min(out.len());
+        let len = self.io.inputs.min(MAX_IO_LEN);
         if self.freeze_active {
-            out[..len].copy_from_slice(&self.frozen_inputs[..len]);
-        } else {
-            self.app.inputs(now, &mut out[..len]);
+            return &self.frozen_inputs[..len];
         }
-        len
+        self.app.inputs(now, &mut self.payload_buffer[..len]);
+        &self.payload_buffer[..len]
     }
 
     pub fn app(&self) -> &A {
@@ -735,7 +741,8 @@ impl<A: Application> Slave<A> {
         Answer::ShortAck
     }
 
-    fn current_cfg(&self) -> &[u8] {
+    /// The configuration Get_Cfg answers with now.
+    pub fn cfg_now(&self) -> &[u8] {
         if self.state == State::DataExch {
             &self.cfg
         } else {

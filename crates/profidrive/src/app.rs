@@ -101,7 +101,7 @@ impl<D: Drive> ProfidriveApp<D> {
     // constructors write it in place instead of into temporaries copied up a level (the boot
     // frame is 0.45 KiB smaller, on the production board's 20 KiB).
     #[inline(always)]
-    pub fn new(drive: D) -> ProfidriveApp<D> {
+    pub const fn new(drive: D) -> ProfidriveApp<D> {
         ProfidriveApp {
             drive,
             prm: UserPrm::DEFAULT,
@@ -109,20 +109,20 @@ impl<D: Drive> ProfidriveApp<D> {
             pzd_out: [0; MAX_PZD_WORDS],
             pzd_applied: [0; MAX_PZD_WORDS],
             pzd_in: [0; MAX_PZD_WORDS],
-            pkw: PkwServer::default(),
+            pkw: PkwServer::new(),
             fail_safe: Some(FailSafeCause::LeftDataExchange),
             last_outputs_at: None,
             link_error: None,
-            link_diag: LinkDiagnosis::default(),
+            link_diag: LinkDiagnosis::new(),
             diag_changed: false,
-            profile: Profile::default(),
+            profile: Profile::new(),
             drive_status: 0,
             rated_reference: 0,
             rated_read: None,
-            params: Parameters::default(),
-            faults: FaultBuffer::default(),
+            params: Parameters::new(),
+            faults: FaultBuffer::new(),
             exchanged: None,
-            dpv1: Dpv1Server::default(),
+            dpv1: Dpv1Server::new(),
             dp_mode_dpv1: false,
         }
     }
@@ -795,16 +795,15 @@ mod tests {
             },
             app,
         );
-        let mut diag = [0u8; 16];
-        let (len, _) = slave.write_diag(&mut diag);
-        assert_eq!(len, 8);
+        let (diag, _) = slave.diag_now();
+        assert_eq!(diag.len(), 8);
         assert_eq!(diag[6..8], [2, 0]);
         assert_eq!(diag[0] & dp_consts::diag::ST1_EXT_DIAG, 0);
         slave.app_mut().drive_mut().disconnected = true;
         slave.app_mut().service_pzd(Instant::from_millis(1));
         slave.app_mut().service_pkw(Instant::from_millis(1));
-        let (len, _) = slave.write_diag(&mut diag);
-        assert_eq!((len, diag[7]), (8, EXT_DIAG_LINK_LOST_TEMPORARILY));
+        let (diag, _) = slave.diag_now();
+        assert_eq!((diag.len(), diag[7]), (8, EXT_DIAG_LINK_LOST_TEMPORARILY));
         assert_ne!(diag[0] & dp_consts::diag::ST1_EXT_DIAG, 0);
     }
 

@@ -45,13 +45,31 @@ enum State {
 }
 
 /// Counters for reports.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Dpv1Figures {
     pub requests: u32,
     pub responses: u32,
     pub busy_reads: u32,
     pub refused: u32,
+}
+
+impl Dpv1Figures {
+    /// Nothing counted yet.
+    pub const fn new() -> Dpv1Figures {
+        Dpv1Figures {
+            requests: 0,
+            responses: 0,
+            busy_reads: 0,
+            refused: 0,
+        }
+    }
+}
+
+impl Default for Dpv1Figures {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 pub struct Dpv1Server {
@@ -71,8 +89,9 @@ struct Answer {
     outcomes: [Option<ErrorNumber>; MAX_PARAMETERS],
 }
 
-impl Default for Dpv1Server {
-    fn default() -> Self {
+impl Dpv1Server {
+    /// Idle, nothing asked yet.
+    pub const fn new() -> Dpv1Server {
         Dpv1Server {
             request: [0; MAX_LEN],
             request_len: 0,
@@ -82,8 +101,14 @@ impl Default for Dpv1Server {
                 len: 0,
                 outcomes: [None; MAX_PARAMETERS],
             },
-            figures: Dpv1Figures::default(),
+            figures: Dpv1Figures::new(),
         }
+    }
+}
+
+impl Default for Dpv1Server {
+    fn default() -> Self {
+        Self::new()
     }
 }
 

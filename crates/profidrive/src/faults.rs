@@ -19,7 +19,7 @@ pub const DRIVECOM_SERIAL_INTERFACE: u16 = 0x7510;
 pub const DRIVECOM_GENERIC: u16 = 0x1000;
 
 /// The buffer's state beside the parameters it fills.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct FaultBuffer {
     /// When each fault of the buffer happened.
     at: [Option<Instant>; FAULT_SUBINDICES.len()],
@@ -33,6 +33,27 @@ pub struct FaultBuffer {
     warning_due: bool,
     warning_read: Option<ParamRequest>,
     warning_gone: bool,
+}
+
+impl FaultBuffer {
+    /// No fault yet.
+    pub const fn new() -> FaultBuffer {
+        FaultBuffer {
+            at: [None; FAULT_SUBINDICES.len()],
+            due: None,
+            read: None,
+            reset_due: false,
+            warning_due: false,
+            warning_read: None,
+            warning_gone: false,
+        }
+    }
+}
+
+impl Default for FaultBuffer {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 /// The alarms 953-957 hold (seed 004 table 22: 958-960 "不支持").

@@ -112,13 +112,31 @@ pub struct Settings {
 }
 
 /// Counters for reports.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GroupFigures {
     pub loads: u16,
     pub refreshes: u16,
     pub writes: u32,
     /// Writes the drive refused (a value out of its range): not tried again.
     pub refused: u16,
+}
+
+impl GroupFigures {
+    /// Nothing counted yet.
+    pub const fn new() -> GroupFigures {
+        GroupFigures {
+            loads: 0,
+            refreshes: 0,
+            writes: 0,
+            refused: 0,
+        }
+    }
+}
+
+impl Default for GroupFigures {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -151,10 +169,11 @@ pub struct FieldbusGroup {
     pub figures: GroupFigures,
 }
 
-impl Default for FieldbusGroup {
-    fn default() -> Self {
+impl FieldbusGroup {
+    /// Loading the settings from the first, nothing held yet.
+    pub const fn new() -> FieldbusGroup {
         let mut shown = [None; LAST_INDEX as usize + 1];
-        shown[usize::from(index::MODULE_TYPE)] = Some(MODULE_TYPE_PROFIBUS_DP);
+        shown[index::MODULE_TYPE as usize] = Some(MODULE_TYPE_PROFIBUS_DP);
         FieldbusGroup {
             phase: Phase::Loading {
                 at: 0,
@@ -167,8 +186,14 @@ impl Default for FieldbusGroup {
             requested_address: None,
             differs: true,
             next_poll_us: REFRESH_POLL_US,
-            figures: GroupFigures::default(),
+            figures: GroupFigures::new(),
         }
+    }
+}
+
+impl Default for FieldbusGroup {
+    fn default() -> Self {
+        Self::new()
     }
 }
 

@@ -28,12 +28,29 @@ pub enum DriveLink {
 }
 
 /// The flags and when the link was lost.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LinkDiagnosis {
     lost_since: Option<Instant>,
     flags: u8,
     /// A cycle with the drive has been noted.
     noted: bool,
+}
+
+impl LinkDiagnosis {
+    /// No cycle with the drive noted yet.
+    pub const fn new() -> LinkDiagnosis {
+        LinkDiagnosis {
+            lost_since: None,
+            flags: 0,
+            noted: false,
+        }
+    }
+}
+
+impl Default for LinkDiagnosis {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl LinkDiagnosis {

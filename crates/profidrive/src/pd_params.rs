@@ -242,8 +242,9 @@ pub enum Action {
     Restart,
 }
 
-impl Default for Parameters {
-    fn default() -> Self {
+impl Parameters {
+    /// The values at power-up.
+    pub const fn new() -> Parameters {
         Parameters {
             pzd_out: [0; MAX_PZD_WORDS],
             pzd_in: [0; MAX_PZD_WORDS],
@@ -274,6 +275,12 @@ impl Default for Parameters {
             node_address_writable: false,
             motor_running: false,
         }
+    }
+}
+
+impl Default for Parameters {
+    fn default() -> Self {
+        Self::new()
     }
 }
 

@@ -143,7 +143,7 @@ pub fn reply(request: &Request, result: Result<u16, DriveError>) -> Reply {
 }
 
 /// The parameter channel over data exchange cycles.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct PkwServer {
     /// The request the current reply answers.
     answered: Option<[u8; PKW_BYTES]>,
@@ -154,6 +154,25 @@ pub struct PkwServer {
     /// The drive access of the pending request, under way.
     in_flight: Option<([u8; PKW_BYTES], ParamRequest)>,
     reply: [u8; PKW_BYTES],
+}
+
+impl PkwServer {
+    /// No request yet.
+    pub const fn new() -> PkwServer {
+        PkwServer {
+            answered: None,
+            pending: None,
+            refresh: None,
+            in_flight: None,
+            reply: [0; PKW_BYTES],
+        }
+    }
+}
+
+impl Default for PkwServer {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl PkwServer {

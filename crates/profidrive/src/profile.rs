@@ -100,8 +100,9 @@ pub struct Profile {
     reset_requested: bool,
 }
 
-impl Default for Profile {
-    fn default() -> Self {
+impl Profile {
+    /// Switch-on inhibit, no control word yet.
+    pub const fn new() -> Profile {
         Profile {
             state: DriveState::SwitchOnInhibit,
             control_word: 0,
@@ -109,6 +110,12 @@ impl Default for Profile {
             previous_control: 0,
             reset_requested: false,
         }
+    }
+}
+
+impl Default for Profile {
+    fn default() -> Self {
+        Self::new()
     }
 }
 

@@ -14,8 +14,10 @@
 //! from the part where the emulator forces it, and only there (README "The production board
 //! under emulation"): its RCC reads 0, so the clock start-up does not wait for ready flags; it
 //! has no DMA, so USART1 receives a byte per RXNE interrupt and sends polling TXE; it has no
-//! DWT, so SysTick counts the cycles; 8 KiB of RAM (the memory map comes from the board table);
-//! defmt and a failure exit go over semihosting, as no probe reads RTT.
+//! DWT, so SysTick counts the cycles; 8 KiB of RAM (the memory map comes from the board table),
+//! which holds the adapter only as the image's initial data (feature `adapter-in-image`) and a
+//! link queue of two frames; defmt and a failure exit go over semihosting, as no probe reads
+//! RTT.
 
 pub use stm32f1::stm32f103 as pac;
 

@@ -1,29 +1,48 @@
-//! Baud-rate search by pulse-width measurement, deciding on the first character.
+//! Baud-rate search: one channel per rate, each deciding on the first character at its rate.
 //!
 //! Real ASICs step down from 12 Mbit/s one rate per monitoring period and lose telegrams while
-//! they do. This block instead times the pulses of one character: every start delimiter (SD1 `10`,
-//! SD2 `68`, SD3 `A2`, SD4 `DC`) has a pulse exactly one bit wide, so the shortest pulse names
-//! the rate. Once 10.5 bit times of that rate have passed since the start edge (the middle of the
-//! stop bit), the recorded edges are replayed: every edge must sit on a whole bit time, the
-//! character must have a start bit, even parity, a stop bit, and be a start delimiter, and the
-//! line must have been idle for TSYN before it. Then the rate and the decoded first character are
+//! they do. This block instead listens at all ten rates at once. Each rate's channel sees the
+//! idle line with that rate's glitches removed (a pulse of at most half its bit: a real one
+//! lasts a bit), and starts a measurement at a fall after TSYN (33 of its bits) of idle line. At
+//! the middle of the stop bit (10.5 of its bits after the start edge) it replays the recorded
+//! edges: each bit is the level the line held for longer within it (a glitch of the rate is
+//! shorter than half a bit, so it cannot turn one, nor can an edge it moved; a tie is nothing),
+//! and the character must have a start bit, even parity and a stop bit, and be a start delimiter
+//! (SD1 `10`, SD2 `68`, SD3 `A2`, SD4 `DC`). Then the rate and the decoded first character are
 //! handed to the receiver, which goes on with the rest of the telegram, so nothing is lost.
 //!
 //! ```text
-//!  SD1 0x10: ‾‾|___________________|‾‾‾|___________|‾‾‾‾‾‾‾‾      (start, 4 x 0, 1, 3 x 0, P=1, stop)
-//!              t0                  e1  e2          e3     ^ decide at t0 + 10.5 bits
-//!                                  └ 1 bit ┘ = shortest pulse → rate
+//!  SD1 0x10 at rate r:  ‾‾‾‾(TSYN at r)‾‾‾‾|___________________|‾‾‾|___________|‾‾‾‾‾‾‾‾
+//!                                          t0                                 ^ decide at
+//!  glitches of rate r (<= half its bit) are removed first:   ‾‾|_|‾‾ and __|‾|__ vanish    t0 + 10.5 bits
 //! ```
 //!
-//! A candidate is only that: the lock is confirmed by the transceiver when the whole telegram
-//! arrives without error. Anything that fails a check is dropped and the search goes on at the
-//! next falling edge.
+//! Every start delimiter is one of its rate only: at a faster rate its first pulse is a run of
+//! zeros into the stop bit, at a slower one its one-bit pulses are at most half a bit, glitches
+//! there, or off the sampling points. Channels are independent, so a long measurement at a slow
+//! rate never holds up the fast ones (a master that changes its rate is heard at once), and a
+//! glitch in the idle line or in the delimiter costs nothing at the rate it is a glitch of.
+//!
+//! A channel follows the idle line the way the receiver's filter does, by edges: an edge that
+//! comes within the rate's glitch length of the last one it kept cancels that one (the pulse
+//! between them never was). A fall after TSYN of that line starts a measurement, replacing one
+//! under way (which a glitch started). A channel works on edges and on its decision tick only, so
+//! fast mode passes edges to it (`pass_edge`) and stops only where a measurement starts or a
+//! decision falls due.
+//!
+//! A detection is only a candidate: the lock is confirmed by the transceiver when the whole
+//! telegram arrives without error. Anything that fails a check is dropped and that rate's
+//! channel listens again.
 
 use crate::Tick;
 use dp_consts::{Baud, SD1, SD2, SD3, SD4, TSYN_BITS};
 
-/// Edges one character can have at most (11 bits: 10 changes of level).
-const MAX_EDGES: usize = 10;
+/// Edges one measurement keeps at most: a character's 10 changes of level, and the glitches of
+/// the rate that are still to be cancelled.
+const MAX_EDGES: usize = 16;
+
+/// The rates, one channel each (index into `Baud::ALL`, 9.6k first).
+const RATES: usize = 10;
 
 /// A character the search decoded and the rate it was sent at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,48 +58,72 @@ pub struct Detection {
 /// Why a measured character was not taken (for statistics and tests).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Reject {
-    /// A pulse shorter than a 12 Mbit/s bit, or more edges than a character has.
-    Noise,
-    /// No pulse matched a rate in time.
-    NoRate,
-    /// An edge off the bit grid of the chosen rate.
+    /// An edge where a bit is sampled (its samples disagree), or off the bit grid.
     OffGrid,
     /// Start, parity or stop bit wrong.
     NotAChar,
     /// A valid character, but no start delimiter.
     NotADelimiter,
-    /// The line was not idle for TSYN before it.
-    NoSync,
 }
+
+/// Registers of one rate's channel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChannelQ {
+    /// The line at this rate, its glitches removed.
+    pub level: bool,
+    /// The last edge kept, while a glitch's second edge could still cancel it (`Tick::MAX`:
+    /// none can).
+    pub pending: Tick,
+    /// The line has been high since this tick (its glitches aside)...
+    pub high_since: Tick,
+    /// ... and since this one before the last rise (what a cancelled rise goes back to).
+    pub high_before: Tick,
+    pub measuring: bool,
+    /// The start edge of the measurement.
+    pub t0: Tick,
+    /// Edge times relative to `t0`.
+    pub edges: [u32; MAX_EDGES],
+    pub n_edges: u8,
+}
+
+const CHANNEL_RESET: ChannelQ = ChannelQ {
+    level: true,
+    pending: Tick::MAX,
+    high_since: 0,
+    high_before: 0,
+    measuring: false,
+    t0: 0,
+    edges: [0; MAX_EDGES],
+    n_edges: 0,
+};
 
 /// Registers of the search.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AutoBaudQ {
+    pub channels: [ChannelQ; RATES],
+    /// Some channel is measuring.
     pub measuring: bool,
-    pub t0: Tick,
-    /// Idle clocks before the start edge.
-    pub idle_before: Tick,
-    /// Edge times relative to `t0`.
-    pub edges: [u32; MAX_EDGES],
-    pub n_edges: u8,
-    /// Shortest completed pulse so far, in clocks (`u32::MAX`: none yet).
-    pub min_width: u32,
-    /// Rate of the shortest pulse (index into `Baud::ALL`), once one matches.
-    pub candidate: Option<u8>,
-    /// Tick of the decision (the candidate's stop-bit middle) or of giving up without one.
+    /// The earliest decision due (`Tick::MAX`: none).
     pub deadline: Tick,
 }
 
 pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
+    channels: [CHANNEL_RESET; RATES],
     measuring: false,
-    t0: 0,
-    idle_before: 0,
-    edges: [0; MAX_EDGES],
-    n_edges: 0,
-    min_width: u32::MAX,
-    candidate: None,
     deadline: Tick::MAX,
 };
+
+impl AutoBaudQ {
+    /// The search with the line idle since `now` (a reset on a running bus).
+    pub fn idle_since(now: Tick) -> AutoBaudQ {
+        let mut q = AUTOBAUD_RESET;
+        for c in &mut q.channels {
+            c.high_since = now;
+            c.high_before = now;
+        }
+        q
+    }
+}
 
 /// Per-rate constants, computed once from the sample clock.
 #[derive(Clone, Copy, Debug)]
@@ -88,11 +131,10 @@ struct RateWindow {
     /// Bit period: `modulo / inc` clocks, exact.
     inc: u64,
     modulo: u64,
-    /// Pulse widths (clocks) this rate accepts as one bit.
-    lo: u32,
-    hi: u32,
+    /// Pulses of at most this many clocks are glitches at this rate (the receiver's filter).
+    glitch: u64,
     /// Relative tick at which the stop bit's middle is reached.
-    decide_at: u32,
+    decide_at: u64,
     /// Idle clocks that make TSYN (half a bit of tolerance for sampling and clock offset).
     tsyn: u64,
 }
@@ -100,52 +142,22 @@ struct RateWindow {
 /// The search block's fixed configuration.
 #[derive(Clone, Debug)]
 pub struct AutoBaud {
-    windows: [RateWindow; 10],
-    /// Give up on a measurement after this many clocks without a decision.
-    give_up_at: u32,
-    /// The shortest TSYN of all rates (the fastest's): a fall after less idle starts nothing.
-    min_tsyn: Tick,
+    windows: [RateWindow; RATES],
 }
 
 impl AutoBaud {
     pub fn new(clock_hz: u32) -> Self {
-        let timings = Baud::ALL.map(|b| crate::BitTiming::new(clock_hz, b, 0));
-        let bit = |i: usize| timings[i].clocks_per_bit();
-        // Neighbouring rates are at least 2x apart: the boundary between two is the geometric
-        // mean of their bits, and the outermost windows allow a quarter of a bit and a clock of
-        // sampling error. `decide` then holds every edge to the chosen rate's bit grid.
-        let boundary = |slow: usize| (bit(slow) * bit(slow + 1)).isqrt();
-        let windows: [RateWindow; 10] = core::array::from_fn(|i| {
-            let t = timings[i];
+        let windows = core::array::from_fn(|i| {
+            let t = crate::BitTiming::new(clock_hz, Baud::ALL[i], 0);
             RateWindow {
                 inc: t.inc,
                 modulo: t.modulo,
-                lo: if i == 9 {
-                    (bit(i) * 3 / 4).saturating_sub(1).max(1)
-                } else {
-                    boundary(i) + 1
-                } as u32,
-                hi: if i == 0 {
-                    bit(i) + t.clocks_for(1, 4) + 1
-                } else {
-                    boundary(i - 1)
-                } as u32,
-                decide_at: t.clocks_for(21, 2) as u32,
+                glitch: crate::filter::glitch_len_for(t.clocks_per_bit()).into(),
+                decide_at: t.clocks_for(21, 2),
                 tsyn: t.clocks_for(2 * TSYN_BITS as u64 - 1, 2),
             }
         });
-        let give_up_at = windows[0].decide_at + windows[0].hi;
-        let min_tsyn = windows.iter().map(|w| w.tsyn).min().unwrap_or(0);
-        AutoBaud {
-            windows,
-            give_up_at,
-            min_tsyn,
-        }
-    }
-
-    /// The shortest idle after which a fall starts a measurement.
-    pub fn min_tsyn(&self) -> Tick {
-        self.min_tsyn
+        AutoBaud { windows }
     }
 
     /// Idle clocks that make TSYN at `baud`.
@@ -153,121 +165,103 @@ impl AutoBaud {
         self.windows[baud.index()].tsyn
     }
 
-    fn classify(&self, width: u32) -> Option<u8> {
-        self.windows
-            .iter()
-            .position(|w| (w.lo..=w.hi).contains(&width))
-            .map(|i| i as u8)
-    }
-
-    /// One clock at `now`; `idle` is how long the line has been idle (clocks). Updates the
+    /// One clock at `now` (`fell`, `rose`: the line changed on it). Returns a detection or a
+    /// rejection when a decision falls due; with the receiver on a rate (`heard`), only a
+    /// detection at another rate: nothing else would change anything then. Updates the
     /// registers in place: the search runs on every clock beside the receiver, and copying its
-    /// 60 bytes of registers on each one halved the model's speed.
+    /// registers on each one would halve the model's speed.
     #[inline(always)]
     pub fn clock(
         &self,
         now: Tick,
-        idle: Tick,
         fell: bool,
         rose: bool,
+        heard: Option<Baud>,
         q: &mut AutoBaudQ,
     ) -> Option<Result<Detection, Reject>> {
         if !(fell || rose) && now < q.deadline {
             return None;
         }
-        if !q.measuring {
-            // Not measuring: the deadline is Tick::MAX, so this is an edge. Every start
-            // delimiter comes after TSYN of idle, at least the fastest rate's: a fall after
-            // less is not looked at (inside a telegram at a fast rate, none is).
-            if fell {
-                if idle < self.min_tsyn {
-                    return Some(Err(Reject::NoSync));
-                }
-                self.start(now, idle, q);
-            }
+        if fell || rose {
+            self.pass_edge(now, rose, q);
+        }
+        if now < q.deadline {
             return None;
         }
-        let rel = (now - q.t0).min(u32::MAX as u64) as u32;
-        if fell || rose {
-            let last = if q.n_edges == 0 {
-                0
-            } else {
-                q.edges[q.n_edges as usize - 1]
-            };
-            // In SD1-SD4 no high run is longer than the time from the start edge to it (SD4's
-            // three 1s after three 0s come closest). A fall after a high run more than twice
-            // that long cannot be inside the same delimiter: it may be the start of the next
-            // one, so it starts a new measurement now instead of the search waiting out one
-            // that cannot succeed (what lets a master's first telegram at a new rate through).
-            if fell && q.n_edges > 0 && rel - last > 2 * last && idle >= self.min_tsyn {
-                self.start(now, idle, q);
-                return None;
+        // Decisions due, the fastest rate first: a detection goes before any rejection.
+        let mut out = None;
+        for r in (0..RATES).rev() {
+            let c = &mut q.channels[r];
+            if !c.measuring || now < c.t0 + self.windows[r].decide_at {
+                continue;
             }
-            if q.n_edges as usize == MAX_EDGES {
-                return reject(Reject::Noise, q);
+            c.measuring = false;
+            if heard.is_some_and(|b| b.index() == r) {
+                continue;
             }
-            let width = rel - last;
-            // The first pulse of a start delimiter is 2 to 5 of its bits and the idle before
-            // it at least 32.5: a first pulse longer than a quarter of that idle cannot be the
-            // start of one that has TSYN before it (what frees the search at once inside a
-            // telegram at the locked rate).
-            if q.n_edges == 0 && 4 * width as Tick > q.idle_before {
-                return reject(Reject::NoSync, q);
+            let decided = self.decide(r, c);
+            if heard.is_some() && decided.is_err() {
+                continue;
             }
-            q.edges[q.n_edges as usize] = rel;
-            q.n_edges += 1;
-            if width < q.min_width {
-                q.min_width = width;
-                if width < self.windows[9].lo {
-                    return reject(Reject::Noise, q);
-                }
-                if let Some(c) = self.classify(width) {
-                    q.candidate = Some(c);
-                    q.deadline = q.t0 + self.windows[c as usize].decide_at as Tick;
-                }
+            if out.is_none() || (decided.is_ok() && !matches!(out, Some(Ok(_)))) {
+                out = Some(decided);
             }
         }
-        match q.candidate {
-            Some(c) if rel >= self.windows[c as usize].decide_at => {
-                let out = self.decide(c, q);
-                *q = AUTOBAUD_RESET;
-                Some(out)
-            }
-            None if rel >= self.give_up_at => reject(Reject::NoRate, q),
-            _ => None,
+        self.update_deadline(q);
+        out
+    }
+
+    /// A change of the line at `now` (it rose, or fell), into every channel. Nothing is decided
+    /// on an edge, so fast mode passes edges here without stopping on them.
+    pub fn pass_edge(&self, now: Tick, rose: bool, q: &mut AutoBaudQ) {
+        let mut changed = false;
+        for (w, c) in self.windows.iter().zip(&mut q.channels) {
+            changed |= edge(w, now, rose, c);
+        }
+        if changed {
+            self.update_deadline(q);
         }
     }
 
-    /// A new measurement from the falling edge at `now`.
-    fn start(&self, now: Tick, idle: Tick, q: &mut AutoBaudQ) {
-        *q = AUTOBAUD_RESET;
-        q.measuring = true;
-        q.t0 = now;
-        q.idle_before = idle;
-        q.deadline = now + self.give_up_at as Tick;
+    fn update_deadline(&self, q: &mut AutoBaudQ) {
+        let mut deadline = Tick::MAX;
+        for (w, c) in self.windows.iter().zip(&q.channels) {
+            if c.measuring {
+                deadline = deadline.min(c.t0 + w.decide_at);
+            }
+        }
+        q.deadline = deadline;
+        q.measuring = deadline != Tick::MAX;
     }
 
-    fn decide(&self, c: u8, q: &AutoBaudQ) -> Result<Detection, Reject> {
-        let w = &self.windows[c as usize];
-        let baud = Baud::ALL[c as usize];
-        let edges = &q.edges[..q.n_edges as usize];
-        // Every edge on a whole bit time: within a quarter bit plus a clock of the grid.
-        let mut last_bit = 0;
-        for &e in edges {
-            let scaled = e as u64 * w.inc;
-            let bit = (scaled + w.modulo / 2) / w.modulo;
-            let dev = scaled.abs_diff(bit * w.modulo);
-            if bit <= last_bit || bit > 10 || 4 * dev > w.modulo + 4 * w.inc {
+    /// The character channel `r` measured, each bit taken by the level it held longer.
+    fn decide(&self, r: usize, c: &ChannelQ) -> Result<Detection, Reject> {
+        let w = &self.windows[r];
+        let edges = &c.edges[..c.n_edges as usize];
+        // Time in phase units (clocks x inc): bit k spans [k, k + 1) x modulo exactly.
+        let mut shift = 0u16;
+        let mut next = 0; // the first edge not yet behind the bit's start
+        let mut level = false; // low from the start edge
+        for k in 0..11u64 {
+            let (from, to) = (k * w.modulo, (k + 1) * w.modulo);
+            let (mut at, mut high) = (from, 0);
+            while next < edges.len() && u64::from(edges[next]) * w.inc < to {
+                let e = (u64::from(edges[next]) * w.inc).max(from);
+                if level {
+                    high += e - at;
+                }
+                at = e;
+                level = !level;
+                next += 1;
+            }
+            if level {
+                high += to - at;
+            }
+            // A glitch of the rate is shorter than half a bit: a tie is none of it.
+            if 2 * high == w.modulo {
                 return Err(Reject::OffGrid);
             }
-            last_bit = bit;
-        }
-        // Replay the waveform at each bit's middle.
-        let mut shift = 0u16;
-        for k in 0..11u64 {
-            let middle = ((2 * k + 1) * w.modulo / (2 * w.inc)) as u32;
-            let changes = edges.iter().filter(|&&e| e <= middle).count();
-            shift |= ((changes % 2 == 1) as u16) << k;
+            shift |= ((2 * high > w.modulo) as u16) << k;
         }
         let byte = (shift >> 1) as u8;
         let parity_ok = (shift >> 9 & 1 == 1) == crate::uart::parity_bit(byte);
@@ -277,98 +271,110 @@ impl AutoBaud {
         if ![SD1, SD2, SD3, SD4].contains(&byte) {
             return Err(Reject::NotADelimiter);
         }
-        if q.idle_before < w.tsyn {
-            return Err(Reject::NoSync);
-        }
         let t = crate::BitTiming {
             inc: w.inc,
             modulo: w.modulo,
         };
         Ok(Detection {
-            baud,
+            baud: Baud::ALL[r],
             byte,
-            start: q.t0,
-            end: q.t0 + t.clocks_for(11, 1),
+            start: c.t0,
+            end: c.t0 + t.clocks_for(11, 1),
         })
     }
 
-    /// Ticks with a constant line before the search does more than count.
-    pub fn quiet_for(&self, now: Tick, q: &AutoBaudQ) -> Tick {
-        q.deadline.saturating_sub(now + 1)
+    /// Ticks with the line constant at `level` before the search decides anything that
+    /// shows. With the receiver on a rate (`heard`) only a detection at another rate shows, so
+    /// fast mode passes over the decisions that cannot be one ([`AutoBaud::unseen`]), and
+    /// [`AutoBaud::retire`] ends them afterwards: inside a telegram at a slow rate the faster
+    /// channels start on most of its falls, and every telegram's delimiter is measured at its
+    /// own rate too; fast mode would stop on each of their decisions.
+    pub fn quiet_for(&self, now: Tick, level: bool, heard: Option<Baud>, q: &AutoBaudQ) -> Tick {
+        if !q.measuring {
+            return Tick::MAX;
+        }
+        let mut deadline = Tick::MAX;
+        for (r, (w, c)) in self.windows.iter().zip(&q.channels).enumerate() {
+            if c.measuring && !unseen(r, c, level, heard) {
+                deadline = deadline.min(c.t0 + w.decide_at);
+            }
+        }
+        deadline.saturating_sub(now + 1)
+    }
+
+    /// Ends the measurements whose decision fell due before `now` unseen ([`AutoBaud::quiet_for`]
+    /// with the line at `level`), as ticking would have.
+    pub fn retire(&self, now: Tick, level: bool, heard: Option<Baud>, q: &mut AutoBaudQ) {
+        if now <= q.deadline {
+            return;
+        }
+        for (r, (w, c)) in self.windows.iter().zip(&mut q.channels).enumerate() {
+            if c.measuring && c.t0 + w.decide_at < now && unseen(r, c, level, heard) {
+                c.measuring = false;
+            }
+        }
+        self.update_deadline(q);
     }
 }
 
-fn reject(why: Reject, q: &mut AutoBaudQ) -> Option<Result<Detection, Reject>> {
-    *q = AUTOBAUD_RESET;
-    Some(Err(why))
+/// Whether the decision of channel `r` cannot show, the line staying at `level`: with the
+/// receiver on a rate (`heard`), that rate's own, and a rejection (nothing but a detection at
+/// another rate shows then): certain where no edge came since the start edge and none will, as
+/// its stop bit is low.
+fn unseen(r: usize, c: &ChannelQ, level: bool, heard: Option<Baud>) -> bool {
+    heard.is_some_and(|b| b.index() == r || (c.n_edges == 0 && !level))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::timing::DEFAULT_CLOCK_HZ;
-    use crate::uart::char_bits;
+/// Whether an edge at `now` cancels the last one the channel kept: the pulse between them is
+/// one of the rate's glitches.
+#[inline(always)]
+fn cancels(w: &RateWindow, now: Tick, c: &ChannelQ) -> bool {
+    now.wrapping_sub(c.pending) <= w.glitch
+}
 
-    /// Feed one character at `baud` after a long idle line, edges at exact bit times.
-    fn detect(baud: Baud, byte: u8, idle_bits: u64) -> Option<Result<Detection, Reject>> {
-        let ab = AutoBaud::new(DEFAULT_CLOCK_HZ);
-        let t = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
-        let bits = char_bits(byte);
-        let t0 = t.clocks_for(idle_bits, 1);
-        let level_at = |now: Tick| {
-            if now < t0 {
-                return true;
-            }
-            let bit = ((now - t0) * t.inc / t.modulo) as usize;
-            bits.get(bit).copied().unwrap_or(true)
-        };
-        let mut q = AUTOBAUD_RESET;
-        let mut prev = true;
-        for now in 0..t0 + t.clocks_for(13, 1) {
-            let l = level_at(now);
-            let out = ab.clock(now, now.min(t0), prev && !l, !prev && l, &mut q);
-            prev = l;
-            if out.is_some() {
-                return out;
-            }
-        }
-        None
-    }
+/// Whether a fall at `now` starts a measurement: it is no glitch's, and the line has been idle
+/// for TSYN before it, the rate's glitches aside. A measurement under way then started on a
+/// glitch (or is no delimiter): the new one replaces it.
+#[inline(always)]
+fn starts(w: &RateWindow, now: Tick, c: &ChannelQ) -> bool {
+    !cancels(w, now, c) && c.level && now - c.high_since.min(now) >= w.tsyn
+}
 
-    #[test]
-    fn every_start_delimiter_names_its_rate() {
-        for baud in Baud::ALL {
-            for sd in [SD1, SD2, SD3, SD4] {
-                let got = detect(baud, sd, 40).unwrap().unwrap();
-                assert_eq!((got.baud, got.byte), (baud, sd), "{baud} {sd:02x}");
-            }
+/// One edge of the line into a channel. The measurement keeps the edges as they are (its
+/// decision weighs each bit whole, which a glitch of the rate cannot turn); the idle line is
+/// followed with the rate's glitches removed. Returns whether a decision was set or dropped.
+#[inline(always)]
+fn edge(w: &RateWindow, now: Tick, rose: bool, c: &mut ChannelQ) -> bool {
+    let mut changed = false;
+    if !rose && starts(w, now, c) {
+        changed = true;
+        c.measuring = true;
+        c.t0 = now;
+        c.n_edges = 0;
+    } else if c.measuring {
+        if c.n_edges as usize == MAX_EDGES {
+            // More edges than a character and its glitches have: not one of this rate.
+            changed = true;
+            c.measuring = false;
+        } else {
+            c.edges[c.n_edges as usize] = (now - c.t0).min(u32::MAX as u64) as u32;
+            c.n_edges += 1;
         }
     }
-
-    #[test]
-    fn other_characters_are_not_taken() {
-        assert_eq!(
-            detect(Baud::B1500000, 0x55, 40),
-            Some(Err(Reject::NotADelimiter))
-        );
-        assert_eq!(
-            detect(Baud::B1500000, 0xE5, 40),
-            Some(Err(Reject::NotADelimiter))
-        );
-    }
-
-    #[test]
-    fn a_start_delimiter_without_tsyn_is_not_taken() {
-        assert_eq!(detect(Baud::B93750, SD2, 20), Some(Err(Reject::NoSync)));
-    }
-
-    #[test]
-    fn windows_tile_the_widths_without_overlap() {
-        for clock in [48_000_000, 96_000_000] {
-            let ab = AutoBaud::new(clock);
-            for w in ab.windows.windows(2) {
-                assert_eq!(w[1].hi + 1, w[0].lo, "{clock}");
-            }
+    if cancels(w, now, c) {
+        // The kept edge and this one were a glitch: the earlier edge stands, for good.
+        c.pending = Tick::MAX;
+        c.level = rose;
+        if !rose {
+            c.high_since = c.high_before;
         }
+        return changed;
     }
+    if rose {
+        c.high_before = c.high_since;
+        c.high_since = now;
+    }
+    c.level = rose;
+    c.pending = now;
+    changed
 }

@@ -5,7 +5,7 @@
 //! an FPGA engineer can port a block line by line. The blocks, in the order the signal meets them:
 //!
 //! ```text
-//!  line ─► GlitchFilter ─┬─► AutoBaud (searching: pulse widths ► rate + first character)
+//!  line ─► GlitchFilter ─┬─► AutoBaud (a channel per rate: first delimiter ► rate + character)
 //!                        └─► UartRx (locked rate: 11-bit characters, majority vote)
 //!                                   └─► Delimiter (TSYN, SD1/SD2/SD3/SD4/SC, LE/LEr, FCS, ED)
 //!  response ─► UartTx (min TSDR after the request, driver enable) ─► line

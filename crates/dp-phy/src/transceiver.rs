@@ -1,21 +1,24 @@
 //! The adapter's transceiver: autobaud, receiver, delimiter, transmitter and baud watchdog.
 //!
 //! Contract, per clock (`tick(line)`):
-//! - While **searching**, [`AutoBaud`] times pulses; a detection makes the rate a *trial*
-//!   and its first character the first of a telegram. A trial becomes **locked** only when that
-//!   telegram (SD1/SD2/SD3/SD4; an SC does not count) arrives complete and error-free; any error
-//!   during the trial returns to searching. Noise can start a trial but never lock.
-//! - The search never stops: while a rate is **locked** it goes on timing pulses through its own
-//!   short filter, beside the receiver. A start delimiter that decodes cleanly at *another* rate
-//!   (every edge on that rate's grid, start, parity and stop bits right, TSYN of idle at that rate
-//!   before it) starts a trial at that rate at once, with the locked rate kept as its fallback:
-//!   the trial's telegram complete and error-free moves the lock (a **relock**); any error in it
-//!   returns to the old lock, its watchdog unchanged. Noise has to forge both to move the lock.
+//! - While **searching**, [`AutoBaud`] listens at every rate at once; a detection makes the rate
+//!   a *trial* and its first character the first of a telegram. A trial becomes **locked** only
+//!   when that telegram (SD1/SD2/SD3/SD4; an SC does not count) arrives complete and error-free;
+//!   any error during the trial returns to searching. Noise can start a trial but never lock.
+//! - The search never stops: while a rate is **locked** it goes on beside the receiver. A start
+//!   delimiter that decodes at *another* rate (each bit the level it held longer, start, parity
+//!   and stop bits right, TSYN of idle at that rate before it, that rate's glitches aside) starts
+//!   a trial at that rate at once, with the locked rate kept as its fallback: the trial's telegram
+//!   complete and error-free moves the lock (a **relock**); any error in it returns to the old
+//!   lock, its watchdog unchanged. Noise has to forge both to move the lock. A detection of a
+//!   character that started before the trial did is the trial's own delimiter at a slower rate:
+//!   it is ignored.
 //! - While **locked**, the baud-control watchdog (ticks of 10 ms) is restarted by every good
 //!   telegram; when it expires (between telegrams: a long one at 9.6k outlasts it) the
 //!   transceiver searches again: the last resort, for a master the relock did not catch.
 //! - The receiver runs behind a glitch filter of half a bit at its rate (a real pulse lasts a
-//!   bit): glitches inside a telegram cost nothing unless they touch an edge. Its characters and
+//!   bit): glitches inside a telegram cost nothing unless they move an edge where a bit is
+//!   sampled (`uart`). Its characters and
 //!   its idle line are dated back by the filter's extra delay, so times are the line's.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
@@ -131,8 +134,9 @@ pub struct Transceiver {
     /// The search's own filter, always [`SEARCH_FILTER_LEN`]: it must see every rate's pulses.
     search_filter_q: FilterQ,
     search_q: AutoBaudQ,
-    /// The search's filtered line has been high since this tick.
-    line_high_since: Tick,
+    /// The tick the trial under way started on: a detection of a character that began before
+    /// it is of the trial's own start delimiter, at a slower rate.
+    trial_since: Tick,
     /// During a trial started from a lock: that lock, to return to if the trial fails.
     fallback: Option<Baud>,
     /// The receiver's line has been idle (high, no character under way) since this tick.
@@ -169,7 +173,7 @@ impl Transceiver {
             rx_q: RX_RESET,
             search_filter_q: FILTER_RESET,
             search_q: AUTOBAUD_RESET,
-            line_high_since: 0,
+            trial_since: 0,
             fallback: None,
             quiet_since: 0,
             drove_until: 0,
@@ -189,7 +193,7 @@ impl Transceiver {
         Transceiver {
             now,
             quiet_since: now,
-            line_high_since: now,
+            search_q: AutoBaudQ::idle_since(now),
             ..Transceiver::new(cfg)
         }
     }
@@ -300,16 +304,15 @@ impl Transceiver {
         let now = self.now;
         let (sf, sfq) = filter::next(line, SEARCH_FILTER_LEN, &self.search_filter_q);
         self.search_filter_q = sfq;
-        let det = self.search.clock(
-            now,
-            now - self.line_high_since,
-            sf.fell,
-            sf.rose,
-            &mut self.search_q,
-        );
-        if !sf.level {
-            self.line_high_since = now + 1;
-        }
+        // The search's own early exit, here: the rate heard is worth working out on its events
+        // only (the search runs on every clock).
+        let det = if sf.fell || sf.rose || now >= self.search_q.deadline {
+            let heard = self.rx.and(self.state.baud());
+            self.search
+                .clock(now, sf.fell, sf.rose, heard, &mut self.search_q)
+        } else {
+            None
+        };
         let switched = match det {
             Some(Ok(d)) => self.on_detection(&d, &mut out),
             Some(Err(_)) => {
@@ -378,6 +381,7 @@ impl Transceiver {
     fn on_detection(&mut self, d: &Detection, out: &mut TickOut) -> bool {
         match self.state {
             BaudState::Trial(b) | BaudState::Locked(b) if b == d.baud => return false,
+            BaudState::Trial(_) if d.start <= self.trial_since => return false,
             BaudState::Searching => self.fallback = None,
             BaudState::Locked(b) => self.fallback = Some(b),
             // A trial from a lock keeps that lock as its fallback.
@@ -448,6 +452,7 @@ impl Transceiver {
     fn start_trial(&mut self, baud: Baud, out: &mut TickOut) {
         self.stats.trials += 1;
         self.state = BaudState::Trial(baud);
+        self.trial_since = self.now;
         out.baud_changed = true;
         self.filter_q = self.search_filter_q;
         self.use_rate(baud);
@@ -497,7 +502,8 @@ impl Transceiver {
         if self.search_flip_is_idle_only(line) {
             search_quiet = Tick::MAX;
         }
-        let mut quiet = search_quiet.min(self.search.quiet_for(now, &self.search_q));
+        let heard = self.rx.and(self.state.baud());
+        let mut quiet = search_quiet.min(self.search.quiet_for(now, line, heard, &self.search_q));
         let Some(rx) = &self.rx else {
             return quiet;
         };
@@ -525,22 +531,18 @@ impl Transceiver {
         quiet
     }
 
-    /// Whether the search filter's coming change of output, towards `line`, would change
-    /// nothing but the idle count: with a rate known and nothing measured, a rise, or a fall
-    /// too soon after the last rise to start a measurement. Fast mode then passes through it
-    /// instead of stopping twice on every edge of the locked rate.
+    /// Whether the search filter's coming change of output, towards `line`, shows nothing at
+    /// once: with a rate known, any. The search decides only when a measurement's time is up,
+    /// never on an edge; a measurement a fall starts there decides after the skip, or, the line
+    /// staying low, can only be rejected (`AutoBaud::quiet_for`). Fast mode then passes the edge
+    /// to the search and goes on, instead of stopping twice on every edge of the locked rate.
     fn search_flip_is_idle_only(&self, line: bool) -> bool {
         let q = &self.search_filter_q;
-        if self.rx.is_none() || self.search_q.measuring || q.sync != line || q.out == line {
-            return false;
-        }
-        let flips_at = self.now + u64::from(SEARCH_FILTER_LEN.saturating_sub(q.count));
-        line || flips_at - self.line_high_since < self.search.min_tsyn()
+        self.rx.is_some() && q.sync == line && q.out != line
     }
 
     /// Let `ticks` pass that [`quiet_for`](Self::quiet_for) allowed for this `line`.
     fn skip(&mut self, ticks: Tick, line: bool) {
-        let search_level = self.search_filter_q.out;
         let search_flip =
             filter::skip_through(line, SEARCH_FILTER_LEN, ticks, &mut self.search_filter_q);
         let level = self.filter_q.out;
@@ -555,13 +557,13 @@ impl Transceiver {
         if self.drive().is_some() {
             self.drove_until = self.now - 1;
         }
-        match search_flip {
-            // Rose on that clock: the clock before it was the last one low.
-            Some(at) if line => self.line_high_since = self.now - ticks + at,
-            Some(_) => self.line_high_since = self.now,
-            None if !search_level => self.line_high_since = self.now,
-            None => {}
+        if let Some(at) = search_flip {
+            self.search
+                .pass_edge(self.now - ticks + at, line, &mut self.search_q);
         }
+        let heard = self.rx.and(self.state.baud());
+        self.search
+            .retire(self.now, line, heard, &mut self.search_q);
         if self.rx.is_some() && !level && !self.rx_q.active {
             self.quiet_since = self.now.saturating_sub(self.rx_late());
         }

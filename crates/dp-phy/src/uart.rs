@@ -9,11 +9,15 @@
 //! ```
 //!
 //! The receiver re-synchronises on every start edge. A start bit must stay 0 on every clock up to
-//! its last vote, or it is a false start and the receiver is ready again at once; a character
-//! whose start edge comes within a bit of a false start, or that has an edge far from a bit
-//! boundary, is reported as `Noise`: a glitch next to a start edge shifts the sampling of the
-//! whole character (several bit errors that parity may not see), and the edges show it. Parity,
-//! framing (stop bit 0) and break (every bit 0) are reported too.
+//! its last vote, or it is a false start and the receiver is ready again at once. A character
+//! whose start edge comes within a bit of a false start is reported as `Noise`, and so is one
+//! with an edge far from a bit boundary (a glitch that touched an edge moved it) whose samples
+//! disagree within a bit, or that has one sample per bit: a glitch next to the start edge shifts
+//! the sampling of the whole character (several bit errors that parity may not see). An edge
+//! moved by less than half a bit leaves each bit's three samples agreeing, on the right bit: the
+//! character is good, as a UART's majority vote takes it (IEC 61158 and the ASICs sample the
+//! middle of the bit; they do not look at edges), and a telegram hit that way is not lost.
+//! Parity, framing (stop bit 0) and break (every bit 0) are reported too.
 //! The transmitter drives a character stream back to back with driver enable asserted only while
 //! it sends; it can hold the line idle for a number of its own bit times first (a master's TSYN)
 //! and, for fault injection, flip a data bit or drop a character.
@@ -30,8 +34,9 @@ pub enum CharError {
     Framing,
     /// Every bit, stop bit included, was 0: the line was held low.
     Break,
-    /// The start edge came within a bit of a false start: a glitch may have moved it, so the
-    /// character's timing cannot be trusted even if its parity is right.
+    /// The start edge came within a bit of a false start, or an edge was moved and the
+    /// samples show it: a glitch may have moved the sampling, so the character cannot be
+    /// trusted even if its parity is right.
     Noise,
 }
 
@@ -83,6 +88,10 @@ pub struct RxQ {
     pub false_start: Option<Tick>,
     /// This character's start edge came within a bit of a false start.
     pub suspect: bool,
+    /// An edge far from a bit boundary: noise moved one.
+    pub moved: bool,
+    /// A bit whose samples disagreed.
+    pub split: bool,
 }
 
 pub const RX_RESET: RxQ = RxQ {
@@ -94,6 +103,8 @@ pub const RX_RESET: RxQ = RxQ {
     start: 0,
     false_start: None,
     suspect: false,
+    moved: false,
+    split: false,
 };
 
 /// The receiver's fixed configuration for one rate.
@@ -152,6 +163,8 @@ impl UartRx {
                 d.suspect = q
                     .false_start
                     .is_some_and(|t| now - t <= self.timing.clocks_per_bit());
+                d.moved = false;
+                d.split = false;
             }
             return (None, d);
         }
@@ -164,11 +177,11 @@ impl UartRx {
             return (None, d);
         }
         if edge && q.bit >= 1 {
-            // Edges belong on bit boundaries: one in the middle part of a bit means the start
-            // edge was moved (up to 3/16 of a bit of drift and sampling is allowed, and a clock).
+            // Edges belong on bit boundaries: one in the middle part of a bit means an edge
+            // was moved (up to 3/16 of a bit of drift and sampling is allowed, and a clock).
             let ph16 = 16 * q.ph;
             if ph16 > 3 * m + 16 * self.timing.inc && ph16 + 16 * self.timing.inc < 13 * m {
-                d.suspect = true;
+                d.moved = true;
             }
         }
         let mut out = None;
@@ -179,6 +192,7 @@ impl UartRx {
                 d.votes += level as u8;
                 if i + 1 == points {
                     let one = d.votes as usize * 2 > points;
+                    d.split |= d.votes != 0 && d.votes as usize != points;
                     d.votes = 0;
                     d.shift |= (one as u16) << q.bit;
                     if q.bit == 0 && one {
@@ -186,7 +200,7 @@ impl UartRx {
                         d.false_start = Some(now);
                     } else if q.bit == 10 {
                         d.active = false;
-                        out = Some(self.finish(now, p, d.shift, q.start, q.suspect));
+                        out = Some(self.finish(now, p, d.shift, q.start, self.noisy(&d)));
                     }
                 }
                 break;
@@ -201,6 +215,11 @@ impl UartRx {
         (out, d)
     }
 
+    /// Whether a finished character's timing cannot be trusted (see the module's doc).
+    fn noisy(&self, q: &RxQ) -> bool {
+        q.suspect || (q.moved && q.split)
+    }
+
     /// The threshold of the bit's last sample.
     fn last_vote(&self) -> u64 {
         *self.points().last().expect("at least one sample point")
@@ -212,7 +231,7 @@ impl UartRx {
         ph_at_stop_middle: u64,
         shift: u16,
         start: Tick,
-        suspect: bool,
+        noisy: bool,
     ) -> RxChar {
         let byte = (shift >> 1) as u8;
         let parity = shift >> 9 & 1 == 1;
@@ -223,7 +242,7 @@ impl UartRx {
             Some(CharError::Framing)
         } else if parity != parity_bit(byte) {
             Some(CharError::Parity)
-        } else if suspect {
+        } else if noisy {
             Some(CharError::Noise)
         } else {
             None
@@ -308,6 +327,8 @@ impl UartRx {
         q.votes += level as u8 * sampled(16 * q.ph, reach);
         if 16 * q.ph < last && last <= reach {
             q.shift |= ((q.votes * 2 > n) as u16) << q.bit;
+            // Only this bit can have votes from before the skip: the later ones are unanimous.
+            q.split |= q.votes != 0 && q.votes != n;
             q.votes = 0;
         }
         if crossed > 0 {

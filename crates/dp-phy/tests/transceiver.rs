@@ -805,5 +805,5 @@ fn pinned_waveforms() {
     assert_eq!(exchange, PINNED_12M, "exchange at 12M");
 }
 
-const PINNED_LOCK: &str = "c1771828ab4f78a84b23f1a2409b36b2785ace5932cbdcae33c72e1781c6a11e";
+const PINNED_LOCK: &str = "9ce949523c61208b9c49e62e4ec4835822ce797f25ea84cce812d1f284cf5ae9";
 const PINNED_12M: &str = "05c3b2a32694d5a8d18ea4fb2ac20f3e02ed5b323c251372d604c7a6d9ba8460";

@@ -50,9 +50,7 @@ impl StationRx {
         // Receiver disabled while driving: it sees an idle line.
         let line = line || driving;
         let (f, fq) = filter::next(line, self.filter_len, &self.q.filter);
-        let (ch, rq) = self
-            .uart
-            .next(now, f.level, f.fell, f.fell || f.rose, &self.q.rx);
+        let (ch, rq) = self.uart.next(now, f.level, f.fell, &self.q.rx);
         self.q = StationRxQ { filter: fq, rx: rq };
         ch
     }

@@ -134,6 +134,11 @@ pub struct Transceiver {
     /// The search's own filter, always [`SEARCH_FILTER_LEN`]: it must see every rate's pulses.
     search_filter_q: FilterQ,
     search_q: AutoBaudQ,
+    /// The last edges of the search's line, oldest first from `line_edges_seen % EDGES_KEPT`:
+    /// the receiver's characters are taken again from them, each data bit by the level the line
+    /// held longer within it ([`Transceiver::retake`]).
+    line_edges: [Tick; EDGES_KEPT],
+    line_edges_seen: u64,
     /// The tick the trial under way started on: a detection of a character that began before
     /// it is of the trial's own start delimiter, at a slower rate.
     trial_since: Tick,
@@ -158,6 +163,9 @@ pub struct Transceiver {
 /// The search filters only single-clock glitches: a 12 Mbit/s bit is 4 clocks at 48 MHz.
 const SEARCH_FILTER_LEN: u16 = 1;
 
+/// Edges of the line kept to take a character again: its 10 changes and glitches besides.
+const EDGES_KEPT: usize = 32;
+
 impl Transceiver {
     pub fn new(cfg: Config) -> Self {
         Transceiver {
@@ -174,6 +182,8 @@ impl Transceiver {
             search_filter_q: FILTER_RESET,
             search_q: AUTOBAUD_RESET,
             trial_since: 0,
+            line_edges: [0; EDGES_KEPT],
+            line_edges_seen: 0,
             fallback: None,
             quiet_since: 0,
             drove_until: 0,
@@ -304,6 +314,9 @@ impl Transceiver {
         let now = self.now;
         let (sf, sfq) = filter::next(line, SEARCH_FILTER_LEN, &self.search_filter_q);
         self.search_filter_q = sfq;
+        if sf.fell || sf.rose {
+            self.keep_line_edge(now);
+        }
         // The search's own early exit, here: the rate heard is worth working out on its events
         // only (the search runs on every clock).
         let det = if sf.fell || sf.rose || now >= self.search_q.deadline {
@@ -326,7 +339,7 @@ impl Transceiver {
 
         if let (Some(rx), false) = (&self.rx, switched) {
             let (f, fq) = filter::next(line, self.filter_len, &self.filter_q);
-            let (c, rq) = rx.next(now, f.level, f.fell, f.fell || f.rose, &self.rx_q);
+            let (c, rq) = rx.next(now, f.level, f.fell, &self.rx_q);
             self.filter_q = fq;
             let late = self.rx_late();
             if rq.active && !self.rx_q.active {
@@ -334,11 +347,11 @@ impl Transceiver {
             }
             self.rx_q = rq;
             if let Some(c) = c {
-                let c = RxChar {
+                let c = self.retake(&RxChar {
                     start: c.start.saturating_sub(late),
                     end: c.end.saturating_sub(late),
                     ..c
-                };
+                });
                 self.quiet_since = c.end;
                 if c.start > self.drove_until {
                     self.on_char(&c, self.rx_idle_before, &mut out);
@@ -398,6 +411,77 @@ impl Transceiver {
         // The search has checked TSYN before this character already.
         self.on_char(&c, Tick::MAX, out);
         true
+    }
+
+    fn keep_line_edge(&mut self, at: Tick) {
+        self.line_edges[(self.line_edges_seen % EDGES_KEPT as u64) as usize] = at;
+        self.line_edges_seen += 1;
+    }
+
+    /// The receiver's character `c` with its start, data and parity bits taken again from the
+    /// line's edges, each by the level the line held longer within it: a glitch shorter than
+    /// half a bit cannot turn a bit so, even where it moved an edge (the receiver's half-bit
+    /// filter drops an edge that a glitch follows within half a bit, so its samples can land on
+    /// the wrong side of a bit boundary). A bit that held both levels equally long, or a start
+    /// bit taken high, is `Noise`; so is a character older than the edges kept. Break, framing
+    /// (its stop bit) and a start after a false start stay the receiver's.
+    fn retake(&self, c: &RxChar) -> RxChar {
+        use crate::uart::CharError;
+        if matches!(c.error, Some(CharError::Break | CharError::Framing)) {
+            return *c;
+        }
+        let Some(timing) = self.rx.map(|rx| rx.timing) else {
+            return *c;
+        };
+        let noise = RxChar {
+            error: Some(CharError::Noise),
+            ..*c
+        };
+        let kept = self.line_edges_seen.min(EDGES_KEPT as u64);
+        let edge = |i: u64| {
+            self.line_edges[((self.line_edges_seen - kept + i) % EDGES_KEPT as u64) as usize]
+        };
+        // The edges after the start, oldest first; the level at the start from their number.
+        let first = (0..kept).find(|&i| edge(i) > c.start).unwrap_or(kept);
+        if first == 0 && self.line_edges_seen > kept {
+            return noise;
+        }
+        let after = kept - first;
+        let mut level = self.search_filter_q.out ^ (after % 2 == 1);
+        let (m, inc) = (timing.modulo, timing.inc);
+        let mut next = first;
+        let mut bits = 0u16;
+        for k in 0..10u64 {
+            let (from, to) = (k * m, (k + 1) * m);
+            let (mut at, mut high) = (from, 0);
+            while next < kept && (edge(next) - c.start) * inc < to {
+                let e = ((edge(next) - c.start) * inc).max(from);
+                if level {
+                    high += e - at;
+                }
+                at = e;
+                level = !level;
+                next += 1;
+            }
+            if level {
+                high += to - at;
+            }
+            if 2 * high == m {
+                return noise;
+            }
+            bits |= ((2 * high > m) as u16) << k;
+        }
+        let byte = (bits >> 1) as u8;
+        let error = if bits & 1 != 0 {
+            Some(CharError::Noise)
+        } else if (bits >> 9 & 1 == 1) != crate::uart::parity_bit(byte) {
+            Some(CharError::Parity)
+        } else if c.error == Some(CharError::Noise) {
+            c.error
+        } else {
+            None
+        };
+        RxChar { byte, error, ..*c }
     }
 
     fn on_char(&mut self, c: &RxChar, idle_before: Tick, out: &mut TickOut) {
@@ -558,8 +642,9 @@ impl Transceiver {
             self.drove_until = self.now - 1;
         }
         if let Some(at) = search_flip {
-            self.search
-                .pass_edge(self.now - ticks + at, line, &mut self.search_q);
+            let at = self.now - ticks + at;
+            self.keep_line_edge(at);
+            self.search.pass_edge(at, line, &mut self.search_q);
         }
         let heard = self.rx.and(self.state.baud());
         self.search

@@ -10,13 +10,11 @@
 //!
 //! The receiver re-synchronises on every start edge. A start bit must stay 0 on every clock up to
 //! its last vote, or it is a false start and the receiver is ready again at once. A character
-//! whose start edge comes within a bit of a false start is reported as `Noise`, and so is one
-//! with an edge far from a bit boundary (a glitch that touched an edge moved it) whose samples
-//! disagree within a bit, or that has one sample per bit: a glitch next to the start edge shifts
-//! the sampling of the whole character (several bit errors that parity may not see). An edge
-//! moved by less than half a bit leaves each bit's three samples agreeing, on the right bit: the
-//! character is good, as a UART's majority vote takes it (IEC 61158 and the ASICs sample the
-//! middle of the bit; they do not look at edges), and a telegram hit that way is not lost.
+//! whose start edge comes within a bit of a false start is reported as `Noise`: a glitch next to
+//! a start edge shifts the sampling of the whole character (several bit errors that parity may
+//! not see). Like a UART's, its bits are the samples' majority; it does not look at edges between
+//! them (the transceiver takes each bit again by the level the line held longer within it,
+//! which a glitch shorter than half a bit cannot turn, nor an edge it moved).
 //! Parity, framing (stop bit 0) and break (every bit 0) are reported too.
 //! The transmitter drives a character stream back to back with driver enable asserted only while
 //! it sends; it can hold the line idle for a number of its own bit times first (a master's TSYN)
@@ -34,9 +32,9 @@ pub enum CharError {
     Framing,
     /// Every bit, stop bit included, was 0: the line was held low.
     Break,
-    /// The start edge came within a bit of a false start, or an edge was moved and the
-    /// samples show it: a glitch may have moved the sampling, so the character cannot be
-    /// trusted even if its parity is right.
+    /// The start edge came within a bit of a false start (a glitch may have moved the
+    /// sampling), or a bit held both levels equally long: the character cannot be trusted even
+    /// if its parity is right.
     Noise,
 }
 
@@ -88,10 +86,6 @@ pub struct RxQ {
     pub false_start: Option<Tick>,
     /// This character's start edge came within a bit of a false start.
     pub suspect: bool,
-    /// An edge far from a bit boundary: noise moved one.
-    pub moved: bool,
-    /// A bit whose samples disagreed.
-    pub split: bool,
 }
 
 pub const RX_RESET: RxQ = RxQ {
@@ -103,8 +97,6 @@ pub const RX_RESET: RxQ = RxQ {
     start: 0,
     false_start: None,
     suspect: false,
-    moved: false,
-    split: false,
 };
 
 /// The receiver's fixed configuration for one rate.
@@ -139,17 +131,9 @@ impl UartRx {
         &self.thresholds[..if self.vote { VOTE_POINTS.len() } else { 1 }]
     }
 
-    /// Next state at `now` for the filtered `level` (`fell`: it fell on this clock; `edge`: it
-    /// changed on this clock).
+    /// Next state at `now` for the filtered `level` (`fell`: it fell on this clock).
     #[inline(always)]
-    pub fn next(
-        &self,
-        now: Tick,
-        level: bool,
-        fell: bool,
-        edge: bool,
-        q: &RxQ,
-    ) -> (Option<RxChar>, RxQ) {
+    pub fn next(&self, now: Tick, level: bool, fell: bool, q: &RxQ) -> (Option<RxChar>, RxQ) {
         let mut d = *q;
         if !q.active {
             if fell {
@@ -163,8 +147,6 @@ impl UartRx {
                 d.suspect = q
                     .false_start
                     .is_some_and(|t| now - t <= self.timing.clocks_per_bit());
-                d.moved = false;
-                d.split = false;
             }
             return (None, d);
         }
@@ -176,14 +158,6 @@ impl UartRx {
             d.false_start = Some(now);
             return (None, d);
         }
-        if edge && q.bit >= 1 {
-            // Edges belong on bit boundaries: one in the middle part of a bit means an edge
-            // was moved (up to 3/16 of a bit of drift and sampling is allowed, and a clock).
-            let ph16 = 16 * q.ph;
-            if ph16 > 3 * m + 16 * self.timing.inc && ph16 + 16 * self.timing.inc < 13 * m {
-                d.moved = true;
-            }
-        }
         let mut out = None;
         let points = self.points().len();
         let (from, to) = (16 * q.ph, 16 * p);
@@ -192,7 +166,6 @@ impl UartRx {
                 d.votes += level as u8;
                 if i + 1 == points {
                     let one = d.votes as usize * 2 > points;
-                    d.split |= d.votes != 0 && d.votes as usize != points;
                     d.votes = 0;
                     d.shift |= (one as u16) << q.bit;
                     if q.bit == 0 && one {
@@ -200,7 +173,7 @@ impl UartRx {
                         d.false_start = Some(now);
                     } else if q.bit == 10 {
                         d.active = false;
-                        out = Some(self.finish(now, p, d.shift, q.start, self.noisy(&d)));
+                        out = Some(self.finish(now, p, d.shift, q.start, q.suspect));
                     }
                 }
                 break;
@@ -215,11 +188,6 @@ impl UartRx {
         (out, d)
     }
 
-    /// Whether a finished character's timing cannot be trusted (see the module's doc).
-    fn noisy(&self, q: &RxQ) -> bool {
-        q.suspect || (q.moved && q.split)
-    }
-
     /// The threshold of the bit's last sample.
     fn last_vote(&self) -> u64 {
         *self.points().last().expect("at least one sample point")
@@ -231,7 +199,7 @@ impl UartRx {
         ph_at_stop_middle: u64,
         shift: u16,
         start: Tick,
-        noisy: bool,
+        suspect: bool,
     ) -> RxChar {
         let byte = (shift >> 1) as u8;
         let parity = shift >> 9 & 1 == 1;
@@ -242,7 +210,7 @@ impl UartRx {
             Some(CharError::Framing)
         } else if parity != parity_bit(byte) {
             Some(CharError::Parity)
-        } else if noisy {
+        } else if suspect {
             Some(CharError::Noise)
         } else {
             None
@@ -327,8 +295,6 @@ impl UartRx {
         q.votes += level as u8 * sampled(16 * q.ph, reach);
         if 16 * q.ph < last && last <= reach {
             q.shift |= ((q.votes * 2 > n) as u16) << q.bit;
-            // Only this bit can have votes from before the skip: the later ones are unanimous.
-            q.split |= q.votes != 0 && q.votes != n;
             q.votes = 0;
         }
         if crossed > 0 {
@@ -357,7 +323,7 @@ impl UartRx {
             if done == ticks {
                 break;
             }
-            let (out, d) = self.next(now + done, level, false, false, q);
+            let (out, d) = self.next(now + done, level, false, q);
             debug_assert!(out.is_none(), "skip_votes past a character's end");
             *q = d;
             done += 1;
@@ -616,7 +582,7 @@ mod tests {
         while tx.busy() || rq.active {
             let line = tx.drive().unwrap_or(true);
             let (f, fd) = crate::filter::next(line, len, &fq);
-            let (c, rd) = rx.next(now, f.level, f.fell, f.fell || f.rose, &rq);
+            let (c, rd) = rx.next(now, f.level, f.fell, &rq);
             fq = fd;
             rq = rd;
             got.extend(c);

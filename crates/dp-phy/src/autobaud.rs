@@ -66,18 +66,9 @@ pub enum Reject {
     NotADelimiter,
 }
 
-/// Registers of one rate's channel.
+/// Registers of one rate's measurement.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ChannelQ {
-    /// The line at this rate, its glitches removed.
-    pub level: bool,
-    /// The last edge kept, while a glitch's second edge could still cancel it (`Tick::MAX`:
-    /// none can).
-    pub pending: Tick,
-    /// The line has been high since this tick (its glitches aside)...
-    pub high_since: Tick,
-    /// ... and since this one before the last rise (what a cancelled rise goes back to).
-    pub high_before: Tick,
     pub measuring: bool,
     /// The start edge of the measurement.
     pub t0: Tick,
@@ -87,19 +78,25 @@ pub struct ChannelQ {
 }
 
 const CHANNEL_RESET: ChannelQ = ChannelQ {
-    level: true,
-    pending: Tick::MAX,
-    high_since: 0,
-    high_before: 0,
     measuring: false,
     t0: 0,
     edges: [0; MAX_EDGES],
     n_edges: 0,
 };
 
-/// Registers of the search.
+/// Registers of the search. Each rate follows the idle line in three registers, kept as arrays
+/// (one per rate) because every edge of the line updates all ten: the last edge kept while a
+/// glitch's second edge could still cancel it (`Tick::MAX`: none can); the tick the line has
+/// been high since, the rate's glitches aside; and the one before the last rise (what a
+/// cancelled rise goes back to). The line at a rate is the line itself after every edge: a
+/// cancelling edge restores the level before the cancelled one, which is its own.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AutoBaudQ {
+    pub pending: [Tick; RATES],
+    pub high_since: [Tick; RATES],
+    /// The line's last edge, glitch or not.
+    pub last_edge: Tick,
+    pub high_before: [Tick; RATES],
     pub channels: [ChannelQ; RATES],
     /// Some channel is measuring.
     pub measuring: bool,
@@ -108,6 +105,10 @@ pub struct AutoBaudQ {
 }
 
 pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
+    pending: [Tick::MAX; RATES],
+    high_since: [0; RATES],
+    last_edge: 0,
+    high_before: [0; RATES],
     channels: [CHANNEL_RESET; RATES],
     measuring: false,
     deadline: Tick::MAX,
@@ -116,12 +117,12 @@ pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
 impl AutoBaudQ {
     /// The search with the line idle since `now` (a reset on a running bus).
     pub fn idle_since(now: Tick) -> AutoBaudQ {
-        let mut q = AUTOBAUD_RESET;
-        for c in &mut q.channels {
-            c.high_since = now;
-            c.high_before = now;
+        AutoBaudQ {
+            high_since: [now; RATES],
+            high_before: [now; RATES],
+            last_edge: now,
+            ..AUTOBAUD_RESET
         }
-        q
     }
 }
 
@@ -143,6 +144,9 @@ struct RateWindow {
 #[derive(Clone, Debug)]
 pub struct AutoBaud {
     windows: [RateWindow; RATES],
+    /// Each rate's glitch length and TSYN again, as arrays for the per-edge update.
+    glitch: [Tick; RATES],
+    tsyn: [Tick; RATES],
 }
 
 impl AutoBaud {
@@ -157,7 +161,11 @@ impl AutoBaud {
                 tsyn: t.clocks_for(2 * TSYN_BITS as u64 - 1, 2),
             }
         });
-        AutoBaud { windows }
+        AutoBaud {
+            windows,
+            glitch: windows.map(|w| w.glitch),
+            tsyn: windows.map(|w| w.tsyn),
+        }
     }
 
     /// Idle clocks that make TSYN at `baud`.
@@ -213,11 +221,49 @@ impl AutoBaud {
 
     /// A change of the line at `now` (it rose, or fell), into every channel. Nothing is decided
     /// on an edge, so fast mode passes edges here without stopping on them.
+    ///
+    /// The measurements keep the edges as they are (a decision weighs each bit whole, which a
+    /// glitch of the rate cannot turn); the idle line is followed with each rate's glitches
+    /// removed: an edge within the glitch length of the last one kept cancels both.
     pub fn pass_edge(&self, now: Tick, rose: bool, q: &mut AutoBaudQ) {
         let mut changed = false;
-        for (w, c) in self.windows.iter().zip(&mut q.channels) {
-            changed |= edge(w, now, rose, c);
+        for r in 0..RATES {
+            let c = &mut q.channels[r];
+            // A fall after a high longer than a glitch, after TSYN of idle line, starts a
+            // measurement: one under way then started on a glitch (or is no delimiter), and is
+            // replaced. After a shorter high the line was low but for a glitch: the fall goes
+            // on a measurement's start bit, which a glitch cut.
+            if !rose
+                && now - q.last_edge.min(now) > self.glitch[r]
+                && now - q.high_since[r].min(now) >= self.tsyn[r]
+            {
+                changed = true;
+                c.measuring = true;
+                c.t0 = now;
+                c.n_edges = 0;
+            } else if c.measuring {
+                if c.n_edges as usize == MAX_EDGES {
+                    // More edges than a character and its glitches have: not one of this rate.
+                    changed = true;
+                    c.measuring = false;
+                } else {
+                    c.edges[c.n_edges as usize] = (now - c.t0).min(u32::MAX as u64) as u32;
+                    c.n_edges += 1;
+                }
+            }
         }
+        // The idle line: selects, no branches, over the ten rates.
+        for r in 0..RATES {
+            let cancels = now.wrapping_sub(q.pending[r]) <= self.glitch[r];
+            let (since, before) = (q.high_since[r], q.high_before[r]);
+            (q.high_since[r], q.high_before[r]) = match (rose, cancels) {
+                (true, false) => (now, since),
+                (false, true) => (before, before),
+                _ => (since, before),
+            };
+            q.pending[r] = if cancels { Tick::MAX } else { now };
+        }
+        q.last_edge = now;
         if changed {
             self.update_deadline(q);
         }
@@ -325,56 +371,126 @@ fn unseen(r: usize, c: &ChannelQ, level: bool, heard: Option<Baud>) -> bool {
     heard.is_some_and(|b| b.index() == r || (c.n_edges == 0 && !level))
 }
 
-/// Whether an edge at `now` cancels the last one the channel kept: the pulse between them is
-/// one of the rate's glitches.
-#[inline(always)]
-fn cancels(w: &RateWindow, now: Tick, c: &ChannelQ) -> bool {
-    now.wrapping_sub(c.pending) <= w.glitch
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::timing::DEFAULT_CLOCK_HZ;
+    use crate::uart::char_bits;
 
-/// Whether a fall at `now` starts a measurement: it is no glitch's, and the line has been idle
-/// for TSYN before it, the rate's glitches aside. A measurement under way then started on a
-/// glitch (or is no delimiter): the new one replaces it.
-#[inline(always)]
-fn starts(w: &RateWindow, now: Tick, c: &ChannelQ) -> bool {
-    !cancels(w, now, c) && c.level && now - c.high_since.min(now) >= w.tsyn
-}
+    /// Every decision on one character at `baud` after `idle_bits` of idle line, edges at exact
+    /// bit times, with the line inverted over `glitches` (tick, clocks): (tick, outcome).
+    fn decisions(
+        baud: Baud,
+        byte: u8,
+        idle_bits: u64,
+        glitches: &[(Tick, Tick)],
+    ) -> Vec<(Tick, Result<Detection, Reject>)> {
+        let ab = AutoBaud::new(DEFAULT_CLOCK_HZ);
+        let t = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
+        let bits = char_bits(byte);
+        let t0 = t.clocks_for(idle_bits, 1);
+        let level_at = |now: Tick| {
+            let clean = if now < t0 {
+                true
+            } else {
+                let bit = ((now - t0) * t.inc / t.modulo) as usize;
+                bits.get(bit).copied().unwrap_or(true)
+            };
+            let glitched = glitches
+                .iter()
+                .any(|&(at, len)| (at..at + len).contains(&now));
+            clean != glitched
+        };
+        let mut q = AUTOBAUD_RESET;
+        let mut prev = true;
+        let mut out = Vec::new();
+        for now in 0..t0 + t.clocks_for(13, 1) {
+            let l = level_at(now);
+            if let Some(d) = ab.clock(now, prev && !l, !prev && l, None, &mut q) {
+                out.push((now, d));
+            }
+            prev = l;
+        }
+        out
+    }
 
-/// One edge of the line into a channel. The measurement keeps the edges as they are (its
-/// decision weighs each bit whole, which a glitch of the rate cannot turn); the idle line is
-/// followed with the rate's glitches removed. Returns whether a decision was set or dropped.
-#[inline(always)]
-fn edge(w: &RateWindow, now: Tick, rose: bool, c: &mut ChannelQ) -> bool {
-    let mut changed = false;
-    if !rose && starts(w, now, c) {
-        changed = true;
-        c.measuring = true;
-        c.t0 = now;
-        c.n_edges = 0;
-    } else if c.measuring {
-        if c.n_edges as usize == MAX_EDGES {
-            // More edges than a character and its glitches have: not one of this rate.
-            changed = true;
-            c.measuring = false;
-        } else {
-            c.edges[c.n_edges as usize] = (now - c.t0).min(u32::MAX as u64) as u32;
-            c.n_edges += 1;
+    /// The one detection among the decisions, if exactly one.
+    fn detected(d: &[(Tick, Result<Detection, Reject>)]) -> Option<(Baud, u8)> {
+        let found: Vec<_> = d.iter().filter_map(|(_, r)| r.ok()).collect();
+        match found[..] {
+            [one] => Some((one.baud, one.byte)),
+            _ => None,
         }
     }
-    if cancels(w, now, c) {
-        // The kept edge and this one were a glitch: the earlier edge stands, for good.
-        c.pending = Tick::MAX;
-        c.level = rose;
-        if !rose {
-            c.high_since = c.high_before;
+
+    /// What the channel of `baud` decided on a character that starts after `idle_bits`.
+    fn verdict(baud: Baud, byte: u8, idle_bits: u64) -> Option<Result<Detection, Reject>> {
+        let t = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
+        let at = t.clocks_for(idle_bits, 1) + t.clocks_for(21, 2);
+        decisions(baud, byte, idle_bits, &[])
+            .into_iter()
+            .find(|(tick, _)| *tick == at)
+            .map(|(_, d)| d)
+    }
+
+    #[test]
+    fn every_start_delimiter_names_its_rate_and_only_it() {
+        for baud in Baud::ALL {
+            for sd in [SD1, SD2, SD3, SD4] {
+                let d = decisions(baud, sd, 40, &[]);
+                assert_eq!(detected(&d), Some((baud, sd)), "{baud} {sd:02x}");
+            }
         }
-        return changed;
     }
-    if rose {
-        c.high_before = c.high_since;
-        c.high_since = now;
+
+    #[test]
+    fn other_characters_are_not_taken() {
+        for byte in [0x55, 0xE5] {
+            assert!(detected(&decisions(Baud::B1500000, byte, 40, &[])).is_none());
+            assert_eq!(
+                verdict(Baud::B1500000, byte, 40),
+                Some(Err(Reject::NotADelimiter))
+            );
+        }
     }
-    c.level = rose;
-    c.pending = now;
-    changed
+
+    #[test]
+    fn a_start_delimiter_without_tsyn_is_not_taken() {
+        assert!(detected(&decisions(Baud::B93750, SD2, 20, &[])).is_none());
+    }
+
+    /// A glitch of the rate (up to half its bit) in the idle line before the delimiter or in
+    /// one of its bits costs nothing.
+    #[test]
+    fn a_glitch_of_the_rate_costs_the_delimiter_nothing() {
+        for baud in Baud::ALL {
+            let t = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
+            let glitch = crate::filter::glitch_len_for(t.clocks_per_bit()) as Tick;
+            if glitch < 2 {
+                continue; // 12M: its glitches are the search filter's single clocks.
+            }
+            let t0 = t.clocks_for(40, 1);
+            let at_bit = |quarters: u64| t0 + t.clocks_for(quarters, 4);
+            // In the idle line 20 bits before, and a quarter into bits 0, 3 and 7.
+            for at in [t0 - t.clocks_for(20, 1), at_bit(1), at_bit(13), at_bit(29)] {
+                let d = decisions(baud, SD2, 40, &[(at, glitch)]);
+                assert_eq!(detected(&d), Some((baud, SD2)), "{baud} glitch at {at}");
+            }
+        }
+    }
+
+    /// A glitch that touches an edge moves it by less than half a bit: each bit still holds
+    /// its level longer, and the delimiter is taken.
+    #[test]
+    fn a_glitch_on_an_edge_moves_it_and_the_delimiter_is_taken() {
+        for baud in [Baud::B9600, Baud::B93750, Baud::B1500000] {
+            let t = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
+            let t0 = t.clocks_for(40, 1);
+            // SD2 0x68: bits 0-3 low, bit 4 high: a low glitch of a third of a bit right after
+            // the rise at bit 4 moves that edge a third of a bit late.
+            let rise = t0 + t.clocks_for(4, 1);
+            let d = decisions(baud, SD2, 40, &[(rise, t.clocks_for(1, 3))]);
+            assert_eq!(detected(&d), Some((baud, SD2)), "{baud}");
+        }
+    }
 }

@@ -163,7 +163,8 @@ pub struct Transceiver {
 /// The search filters only single-clock glitches: a 12 Mbit/s bit is 4 clocks at 48 MHz.
 const SEARCH_FILTER_LEN: u16 = 1;
 
-/// Edges of the line kept to take a character again: its 10 changes and glitches besides.
+/// Edges of the line kept to take a character again: its 10 changes and glitches besides (a
+/// power of two: a ring).
 const EDGES_KEPT: usize = 32;
 
 impl Transceiver {
@@ -414,7 +415,7 @@ impl Transceiver {
     }
 
     fn keep_line_edge(&mut self, at: Tick) {
-        self.line_edges[(self.line_edges_seen % EDGES_KEPT as u64) as usize] = at;
+        self.line_edges[(self.line_edges_seen & (EDGES_KEPT as u64 - 1)) as usize] = at;
         self.line_edges_seen += 1;
     }
 
@@ -439,10 +440,14 @@ impl Transceiver {
         };
         let kept = self.line_edges_seen.min(EDGES_KEPT as u64);
         let edge = |i: u64| {
-            self.line_edges[((self.line_edges_seen - kept + i) % EDGES_KEPT as u64) as usize]
+            self.line_edges[((self.line_edges_seen - kept + i) & (EDGES_KEPT as u64 - 1)) as usize]
         };
-        // The edges after the start, oldest first; the level at the start from their number.
-        let first = (0..kept).find(|&i| edge(i) > c.start).unwrap_or(kept);
+        // The edges after the start, oldest first (found from the newest back: a character is
+        // recent); the level at the start from their number.
+        let mut first = kept;
+        while first > 0 && edge(first - 1) > c.start {
+            first -= 1;
+        }
         if first == 0 && self.line_edges_seen > kept {
             return noise;
         }

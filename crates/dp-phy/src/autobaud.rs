@@ -227,7 +227,9 @@ impl AutoBaud {
     /// removed: an edge within the glitch length of the last one kept cancels both.
     pub fn pass_edge(&self, now: Tick, rose: bool, q: &mut AutoBaudQ) {
         let mut changed = false;
-        for r in 0..RATES {
+        // A rise only goes on measurements under way.
+        let measure = !rose || q.measuring;
+        for r in (0..RATES).filter(|_| measure) {
             let c = &mut q.channels[r];
             // A fall after a high longer than a glitch, after TSYN of idle line, starts a
             // measurement: one under way then started on a glitch (or is no delimiter), and is

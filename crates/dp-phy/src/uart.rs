@@ -54,6 +54,17 @@ pub fn char_bits(byte: u8) -> [bool; 11] {
     bits
 }
 
+/// Line level `bit` (0 = start .. 10 = stop) of `byte`: [`char_bits`] one at a time, for the
+/// transmitter, which asks at every bit boundary.
+fn char_bit(byte: u8, bit: u8) -> bool {
+    match bit {
+        0 => false,
+        1..=8 => byte >> (bit - 1) & 1 == 1,
+        9 => parity_bit(byte),
+        _ => true,
+    }
+}
+
 /// A character the receiver finished, at the middle of its stop bit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RxChar {
@@ -372,6 +383,9 @@ pub struct UartTx {
     /// Bit boundaries after the current one that keep the output (bounded look-ahead), worked
     /// out once per bit when fast mode first asks: `None` until then.
     run_bits: core::cell::Cell<Option<u32>>,
+    /// What [`quiet_for`](Self::quiet_for) answered, counted down as the clocks it allowed pass
+    /// (the boundary it names stays where it is): `None` until asked again.
+    quiet: core::cell::Cell<Option<Tick>>,
     buf: Vec<u8>,
     faults: Vec<(u16, CharFault)>,
 }
@@ -383,6 +397,7 @@ impl UartTx {
             q: TX_RESET,
             out: None,
             run_bits: core::cell::Cell::new(None),
+            quiet: core::cell::Cell::new(None),
             buf: Vec::with_capacity(dp_consts::MAX_TELEGRAM_LEN),
             faults: Vec::new(),
         }
@@ -415,6 +430,7 @@ impl UartTx {
         };
         self.out = self.drive_at(&self.q);
         self.run_bits.set(None);
+        self.quiet.set(None);
     }
 
     fn fault(&self, index: u16) -> Option<CharFault> {
@@ -439,12 +455,15 @@ impl UartTx {
         let p = self.q.ph + self.timing.inc;
         if p < self.timing.modulo {
             self.q.ph = p;
+            self.quiet
+                .set(self.quiet.get().and_then(|q| q.checked_sub(1)));
             return;
         }
         self.q.ph = p - self.timing.modulo;
         self.q = self.after_boundary(&self.q);
         self.out = self.drive_at(&self.q);
         self.run_bits.set(None);
+        self.quiet.set(None);
     }
 
     /// The output at position `q` (as [`drive`](Self::drive) reads it).
@@ -455,7 +474,7 @@ impl UartTx {
         }
         let byte = self.buf[q.index as usize];
         match self.fault(q.index) {
-            None => Some(char_bits(byte)[q.bit as usize]),
+            None => Some(char_bit(byte, q.bit)),
             Some(CharFault::Drop) => None,
             Some(CharFault::FlipBit(n)) => {
                 let mut bits = char_bits(byte);
@@ -487,8 +506,17 @@ impl UartTx {
         if !self.busy() {
             return Tick::MAX;
         }
+        if let Some(quiet) = self.quiet.get() {
+            return quiet;
+        }
         const LOOK_AHEAD_BITS: u32 = 24;
         let run_bits = self.run_bits.get().unwrap_or_else(|| {
+            // Idle bit times keep the line undriven up to the last of them.
+            if self.q.idle_bits > 1 && self.out.is_none() {
+                let run = self.q.idle_bits - 1;
+                self.run_bits.set(Some(run));
+                return run;
+            }
             let mut q = self.q;
             let mut run = 0;
             while run < LOOK_AHEAD_BITS {
@@ -505,13 +533,30 @@ impl UartTx {
         // Phase still to accumulate to reach the boundary that changes the output; the
         // boundary tick itself is left to `tick`.
         let phase = self.timing.modulo - self.q.ph + u64::from(run_bits) * self.timing.modulo;
-        phase.div_ceil(self.timing.inc) - 1
+        let quiet = phase.div_ceil(self.timing.inc) - 1;
+        self.quiet.set(Some(quiet));
+        quiet
     }
 
     /// Let `ticks` pass that [`quiet_for`](Self::quiet_for) allowed, crossing bit boundaries
     /// as `tick` would.
     pub fn skip(&mut self, ticks: Tick) {
+        self.quiet
+            .set(self.quiet.get().and_then(|q| q.checked_sub(ticks)));
         let mut left = ticks;
+        // Idle bit times before the first character pass in one step: each boundary between
+        // them changes nothing but the count (a master's 33 TSYN bits, at every telegram).
+        if self.q.idle_bits > 1 {
+            let crossed = (self.q.ph + left * self.timing.inc) / self.timing.modulo;
+            if crossed < u64::from(self.q.idle_bits) {
+                self.q.ph = self.q.ph + left * self.timing.inc - crossed * self.timing.modulo;
+                self.q.idle_bits -= crossed as u32;
+                if crossed > 0 {
+                    self.run_bits.set(None);
+                }
+                return;
+            }
+        }
         while left > 0 && self.busy() {
             let to_boundary = self.timing.ticks_until(self.q.ph, self.timing.modulo);
             if left < to_boundary {

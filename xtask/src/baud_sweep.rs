@@ -320,9 +320,11 @@ struct Summary {
     lost_not_hit: usize,
 }
 
-/// Telegrams a rate change may cost without noise (none is what the model does). With noise,
-/// every telegram lost must have been hit by a glitch (`lost_not_hit`).
+/// Telegrams a rate change may cost without noise (none is what the model does), and with it
+/// (issue 17's bound); with noise, every telegram lost must also have been hit by a glitch
+/// (`lost_not_hit`).
 const RELOCK_LOST_CLEAN: usize = 1;
+const RELOCK_LOST: usize = 2;
 
 impl Summary {
     fn of(rows: &[Row]) -> Summary {
@@ -384,6 +386,12 @@ impl Summary {
             failures.push(format!(
                 "{} telegrams lost after a clean rate change (at most {RELOCK_LOST_CLEAN})",
                 self.relock_lost_max_clean
+            ));
+        }
+        if self.relock_lost_max > RELOCK_LOST {
+            failures.push(format!(
+                "{} telegrams lost after a rate change (at most {RELOCK_LOST})",
+                self.relock_lost_max
             ));
         }
         if self.lost_not_hit > 0 {
@@ -766,6 +774,30 @@ mod tests {
         // A missing shard is an error, not a smaller sweep.
         std::fs::remove_file(dir.join("sweep-2-of-2.csv")).unwrap();
         assert!(merge(&dir).is_err());
+    }
+
+    /// Issue 17's bound: two telegrams lost after a change pass, three fail, and so does a
+    /// second one lost after a clean change.
+    #[test]
+    fn a_rate_change_may_cost_two_telegrams_with_noise_and_one_without() {
+        let summary = |relock_lost_max, relock_lost_max_clean| Summary {
+            cases: 1,
+            first_telegram_locks: 1,
+            false_locks: 0,
+            corrupt: 0,
+            unlocked: 0,
+            relock_lost_max,
+            relock_lost_max_clean,
+            noise_relocks: 0,
+            lost_not_hit: 0,
+        };
+        assert!(summary(2, 1).check().is_ok());
+        let err = summary(3, 1).check().unwrap_err().to_string();
+        assert!(
+            err.contains("3 telegrams lost after a rate change (at most 2)"),
+            "{err}"
+        );
+        assert!(summary(2, 2).check().is_err());
     }
 
     #[test]

@@ -17,8 +17,10 @@
 //!   telegram; when it expires (between telegrams: a long one at 9.6k outlasts it) the
 //!   transceiver searches again: the last resort, for a master the relock did not catch.
 //! - The receiver runs behind a glitch filter of half a bit at its rate (a real pulse lasts a
-//!   bit): glitches inside a telegram cost nothing unless they move an edge where a bit is
-//!   sampled (`uart`). Its characters and
+//!   bit): glitches inside a telegram cost nothing. Where a glitch follows an edge within half a
+//!   bit the filter drops that edge too, moving it; so each character is taken again from the
+//!   line's last edges, every bit by the level it held longer (`Transceiver::retake`), which
+//!   a glitch cannot turn. Its characters and
 //!   its idle line are dated back by the filter's extra delay, so times are the line's.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
@@ -136,7 +138,7 @@ pub struct Transceiver {
     search_q: AutoBaudQ,
     /// The last edges of the search's line, oldest first from `line_edges_seen % EDGES_KEPT`:
     /// the receiver's characters are taken again from them, each data bit by the level the line
-    /// held longer within it ([`Transceiver::retake`]).
+    /// held longer within it (`Transceiver::retake`).
     line_edges: [Tick; EDGES_KEPT],
     line_edges_seen: u64,
     /// The tick the trial under way started on: a detection of a character that began before

@@ -557,6 +557,21 @@ impl UartTx {
                 return;
             }
         }
+        // Bit boundaries inside characters, which quiet_for let pass without a change of the
+        // output, in one step too: 11 bits a character.
+        if self.q.idle_bits == 0 && self.q.sending {
+            let crossed = (self.q.ph + left * self.timing.inc) / self.timing.modulo;
+            self.q.ph = self.q.ph + left * self.timing.inc - crossed * self.timing.modulo;
+            if crossed > 0 {
+                let pos = u64::from(self.q.bit) + crossed;
+                self.q.index += (pos / 11) as u16;
+                self.q.bit = (pos % 11) as u8;
+                self.q.sending = (self.q.index as usize) < self.buf.len();
+                self.out = self.drive_at(&self.q);
+                self.run_bits.set(None);
+            }
+            return;
+        }
         while left > 0 && self.busy() {
             let to_boundary = self.timing.ticks_until(self.q.ph, self.timing.modulo);
             if left < to_boundary {

@@ -286,31 +286,14 @@ impl AutoBaud {
     fn decide(&self, r: usize, c: &ChannelQ) -> Result<Detection, Reject> {
         let w = &self.windows[r];
         let edges = &c.edges[..c.n_edges as usize];
-        // Time in phase units (clocks x inc): bit k spans [k, k + 1) x modulo exactly.
-        let mut shift = 0u16;
-        let mut next = 0; // the first edge not yet behind the bit's start
-        let mut level = false; // low from the start edge
-        for k in 0..11u64 {
-            let (from, to) = (k * w.modulo, (k + 1) * w.modulo);
-            let (mut at, mut high) = (from, 0);
-            while next < edges.len() && u64::from(edges[next]) * w.inc < to {
-                let e = (u64::from(edges[next]) * w.inc).max(from);
-                if level {
-                    high += e - at;
-                }
-                at = e;
-                level = !level;
-                next += 1;
-            }
-            if level {
-                high += to - at;
-            }
-            // A glitch of the rate is shorter than half a bit: a tie is none of it.
-            if 2 * high == w.modulo {
-                return Err(Reject::OffGrid);
-            }
-            shift |= ((2 * high > w.modulo) as u16) << k;
+        let mut scaled = [0u64; MAX_EDGES];
+        for (s, &e) in scaled.iter_mut().zip(edges) {
+            *s = u64::from(e) * w.inc;
         }
+        // Low from the start edge; a glitch of the rate is shorter than half a bit, so a tie
+        // is none of it.
+        let shift = crate::uart::bits_by_longer_level(&scaled[..edges.len()], false, w.modulo, 11)
+            .ok_or(Reject::OffGrid)?;
         let byte = (shift >> 1) as u8;
         let parity_ok = (shift >> 9 & 1 == 1) == crate::uart::parity_bit(byte);
         if shift & 1 != 0 || shift >> 10 & 1 != 1 || !parity_ok {

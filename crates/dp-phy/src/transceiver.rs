@@ -467,7 +467,7 @@ impl Transceiver {
             return *c;
         }
         let (m, inc) = (timing.modulo, timing.inc);
-        let mut level = self.search_filter_q.out ^ ((kept - first) % 2 == 1);
+        let level = self.search_filter_q.out ^ ((kept - first) % 2 == 1);
         // The edges inside bits 0-9, in phase units from the start: bit k is [k, k + 1) x m.
         let mut rel = [0u64; EDGES_KEPT];
         let mut n = 0;
@@ -479,33 +479,9 @@ impl Transceiver {
             rel[n] = e;
             n += 1;
         }
-        let mut next = 0;
-        let mut bits = 0u16;
-        for k in 0..10u64 {
-            let (from, to) = (k * m, (k + 1) * m);
-            if next == n || rel[next] >= to {
-                // No edge inside: the bit is the level.
-                bits |= (level as u16) << k;
-                continue;
-            }
-            let (mut at, mut high) = (from, 0);
-            while next < n && rel[next] < to {
-                let e = rel[next].max(from);
-                if level {
-                    high += e - at;
-                }
-                at = e;
-                level = !level;
-                next += 1;
-            }
-            if level {
-                high += to - at;
-            }
-            if 2 * high == m {
-                return noise;
-            }
-            bits |= ((2 * high > m) as u16) << k;
-        }
+        let Some(bits) = crate::uart::bits_by_longer_level(&rel[..n], level, m, 10) else {
+            return noise;
+        };
         let byte = (bits >> 1) as u8;
         let error = if bits & 1 != 0 {
             Some(CharError::Noise)

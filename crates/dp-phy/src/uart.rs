@@ -65,6 +65,43 @@ fn char_bit(byte: u8, bit: u8) -> bool {
     }
 }
 
+/// Bits `0..bits` of a character, each the level the line held longer within it: `edges` are
+/// the line's changes after the start edge, ascending, in phase units (clocks times `inc` of the
+/// rate), `level` the line's level at the start edge, and a bit `modulo` units long. `None`
+/// where a bit held both levels equally long. The autobaud search decides a delimiter so, and
+/// the transceiver takes every character again so: a glitch shorter than half a bit cannot turn
+/// a bit, nor can an edge it moved.
+pub fn bits_by_longer_level(edges: &[u64], mut level: bool, modulo: u64, bits: u32) -> Option<u16> {
+    let mut next = 0;
+    let mut out = 0u16;
+    for k in 0..u64::from(bits) {
+        let (from, to) = (k * modulo, (k + 1) * modulo);
+        if next == edges.len() || edges[next] >= to {
+            // No edge inside: the bit is the level.
+            out |= (level as u16) << k;
+            continue;
+        }
+        let (mut at, mut high) = (from, 0);
+        while next < edges.len() && edges[next] < to {
+            let e = edges[next].max(from);
+            if level {
+                high += e - at;
+            }
+            at = e;
+            level = !level;
+            next += 1;
+        }
+        if level {
+            high += to - at;
+        }
+        if 2 * high == modulo {
+            return None;
+        }
+        out |= ((2 * high > modulo) as u16) << k;
+    }
+    Some(out)
+}
+
 /// A character the receiver finished, at the middle of its stop bit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RxChar {
@@ -594,6 +631,25 @@ impl UartTx {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A glitch under half a bit inside a bit, or one that moved an edge by as much, leaves
+    /// every bit its level; a bit that held both levels equally long is none.
+    #[test]
+    fn bits_are_the_levels_held_longer() {
+        let m = 16;
+        // 0x68's levels 0 0 0 0 1 0 1 1 0 1 1: changes at bits 4, 5, 6, 8, 9.
+        let clean = [4 * m, 5 * m, 6 * m, 8 * m, 9 * m];
+        let want = Some(0b110_1101_0000);
+        assert_eq!(bits_by_longer_level(&clean, false, m, 11), want);
+        // A high glitch of 7/16 in bit 2, and the edge at bit 6 moved 7/16 late.
+        let glitched = [2 * m + 4, 2 * m + 11, 4 * m, 5 * m, 6 * m + 7, 8 * m, 9 * m];
+        assert_eq!(bits_by_longer_level(&glitched, false, m, 11), want);
+        // Half of bit 2 high: neither level.
+        assert_eq!(
+            bits_by_longer_level(&[2 * m + 8, 3 * m], false, m, 11),
+            None
+        );
+    }
     use crate::timing::DEFAULT_CLOCK_HZ;
     use dp_consts::Baud;
 

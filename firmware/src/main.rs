@@ -80,7 +80,7 @@ fn power_up(switch: u8, nv: Option<dp_link::NvRecord>) -> &'static mut adapter::
 
 /// The adapter, powered up: the image holds it unpowered as initial data, which the reset
 /// copies into RAM, and the Boot powers it up in place, once. Built at the Boot it would take
-/// about 2 KiB of stack for a moment, which a board with 8 KiB of RAM does not have (README
+/// a 1.6 KiB stack frame for a moment, which a board with 8 KiB of RAM does not have (README
 /// "The production board under emulation"); the price is its 5 KiB in flash.
 #[cfg(feature = "adapter-in-image")]
 fn power_up(switch: u8, nv: Option<dp_link::NvRecord>) -> &'static mut adapter::Adapter<DriveApp> {
@@ -399,7 +399,7 @@ macro_rules! adapter_app {
             }
 
             /// Powers the adapter up, once: the transceiver sends one Boot per power-up. Never
-            /// inlined: where the adapter is built at Boot that takes about 2 KiB of stack for
+            /// inlined: where the adapter is built at Boot that takes a 1.6 KiB frame for
             /// a moment, and inlined into the link task that frame would be taken at every
             /// dispatch (3.5 KiB then, against 0.5 KiB now), not only at boot.
             #[inline(never)]

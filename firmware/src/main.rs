@@ -65,31 +65,26 @@ const LINK_QUEUE_LEN: usize = board::BOARD.link_queue_frames as usize * dp_link:
 /// The drive application on the drive UART.
 type DriveApp = adapter::DriveApp<drive_uart::DriveUart>;
 
-/// The adapter, powered up: built at the Boot into its place in RAM (zeroed at reset, not part
-/// of the image), once.
+/// The adapter's place, unpowered: built at the Boot into RAM (zeroed at reset, not part of the
+/// image), once.
 #[cfg(not(feature = "adapter-in-image"))]
 #[inline(always)]
-fn power_up(switch: u8, nv: Option<dp_link::NvRecord>) -> &'static mut adapter::Adapter<DriveApp> {
+fn unpowered_adapter() -> &'static mut adapter::Adapter<DriveApp> {
     static ADAPTER: StaticCell<adapter::Adapter<DriveApp>> = StaticCell::new();
-    let adapter = ADAPTER.init_with(|| {
-        adapter::Adapter::unpowered(adapter::drive_app(drive_uart::DriveUart::new()))
-    });
-    adapter.power_up(switch, nv);
-    adapter
+    ADAPTER
+        .init_with(|| adapter::Adapter::unpowered(adapter::drive_app(drive_uart::DriveUart::new())))
 }
 
-/// The adapter, powered up: the image holds it unpowered as initial data, which the reset
-/// copies into RAM, and the Boot powers it up in place, once. Built at the Boot it would take
-/// a 1.6 KiB stack frame for a moment, which a board with 8 KiB of RAM does not have (README
-/// "The production board under emulation"); the price is its 5 KiB in flash.
+/// The adapter's place, unpowered: the image holds it as initial data, which the reset copies
+/// into RAM. Built at the Boot it would take a 1.6 KiB stack frame for a moment, which a board
+/// with 8 KiB of RAM does not have (README "The production board under emulation"); the price
+/// is its 5 KiB in flash.
 #[cfg(feature = "adapter-in-image")]
-fn power_up(switch: u8, nv: Option<dp_link::NvRecord>) -> &'static mut adapter::Adapter<DriveApp> {
+fn unpowered_adapter() -> &'static mut adapter::Adapter<DriveApp> {
     static ADAPTER: ConstStaticCell<adapter::Adapter<DriveApp>> = ConstStaticCell::new(
         adapter::Adapter::unpowered(adapter::drive_app(drive_uart::DriveUart::new())),
     );
-    let adapter = ADAPTER.take();
-    adapter.power_up(switch, nv);
-    adapter
+    ADAPTER.take()
 }
 
 /// The failure paths, proven by `cargo xtask qemu-test` on images built for it.
@@ -148,7 +143,7 @@ macro_rules! adapter_app {
 
             #[local]
             struct Local {
-                /// The adapter, from the Boot on (`crate::power_up`).
+                /// The adapter, from the Boot on (`crate::unpowered_adapter`, powered up).
                 adapter: Option<&'static mut Adapter<crate::DriveApp>>,
                 link_rx: board::Uart,
                 link_tx: Option<board::Uart>,
@@ -412,7 +407,8 @@ macro_rules! adapter_app {
                     warn!("link: a second Boot, ignored");
                     return;
                 }
-                let adapter = crate::power_up(switch, nv);
+                let adapter = crate::unpowered_adapter();
+                adapter.power_up(switch, nv);
                 let a = adapter.addressing();
                 info!("adapter: switch {=u8}, address {=u8} from {}", switch, a.address, a.source);
                 *slot = Some(adapter);

@@ -12,9 +12,9 @@
 //! handed to the receiver, which goes on with the rest of the telegram, so nothing is lost.
 //!
 //! ```text
-//!  SD1 0x10 at rate r:  ‾‾‾‾(TSYN at r)‾‾‾‾|___________________|‾‾‾|___________|‾‾‾‾‾‾‾‾
-//!                                          t0                                 ^ decide at
-//!  glitches of rate r (<= half its bit) are removed first:   ‾‾|_|‾‾ and __|‾|__ vanish    t0 + 10.5 bits
+//!  SD1 0x10 at rate r:  ‾‾(TSYN at r)‾‾|_______________|‾‾|_________|‾‾‾‾‾‾
+//!                                      t0                          ^ decide: t0 + 10.5 bits
+//!  removed first, the glitches of rate r (at most half its bit):  ‾‾|_|‾‾  __|‾|__
 //! ```
 //!
 //! Every start delimiter is one of its rate only: at a faster rate its first pulse is a run of
@@ -94,9 +94,9 @@ const CHANNEL_RESET: ChannelQ = ChannelQ {
 pub struct AutoBaudQ {
     pub pending: [Tick; RATES],
     pub high_since: [Tick; RATES],
+    pub high_before: [Tick; RATES],
     /// The line's last edge, glitch or not.
     pub last_edge: Tick,
-    pub high_before: [Tick; RATES],
     pub channels: [ChannelQ; RATES],
     /// Some channel is measuring.
     pub measuring: bool,
@@ -107,8 +107,8 @@ pub struct AutoBaudQ {
 pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
     pending: [Tick::MAX; RATES],
     high_since: [0; RATES],
-    last_edge: 0,
     high_before: [0; RATES],
+    last_edge: 0,
     channels: [CHANNEL_RESET; RATES],
     measuring: false,
     deadline: Tick::MAX,
@@ -132,45 +132,38 @@ struct RateWindow {
     /// Bit period: `modulo / inc` clocks, exact.
     inc: u64,
     modulo: u64,
-    /// Pulses of at most this many clocks are glitches at this rate (the receiver's filter).
-    glitch: u64,
     /// Relative tick at which the stop bit's middle is reached.
     decide_at: u64,
-    /// Idle clocks that make TSYN (half a bit of tolerance for sampling and clock offset).
-    tsyn: u64,
 }
 
 /// The search block's fixed configuration.
 #[derive(Clone, Debug)]
 pub struct AutoBaud {
     windows: [RateWindow; RATES],
-    /// Each rate's glitch length and TSYN again, as arrays for the per-edge update.
+    /// Pulses of at most this many clocks are glitches at each rate (the receiver's filter).
     glitch: [Tick; RATES],
+    /// Idle clocks that make TSYN at each rate (half a bit of tolerance for sampling and clock
+    /// offset).
     tsyn: [Tick; RATES],
 }
 
 impl AutoBaud {
     pub fn new(clock_hz: u32) -> Self {
-        let windows = core::array::from_fn(|i| {
-            let t = crate::BitTiming::new(clock_hz, Baud::ALL[i], 0);
-            RateWindow {
+        let timings = Baud::ALL.map(|b| crate::BitTiming::new(clock_hz, b, 0));
+        AutoBaud {
+            windows: timings.map(|t| RateWindow {
                 inc: t.inc,
                 modulo: t.modulo,
-                glitch: crate::filter::glitch_len_for(t.clocks_per_bit()).into(),
                 decide_at: t.clocks_for(21, 2),
-                tsyn: t.clocks_for(2 * TSYN_BITS as u64 - 1, 2),
-            }
-        });
-        AutoBaud {
-            windows,
-            glitch: windows.map(|w| w.glitch),
-            tsyn: windows.map(|w| w.tsyn),
+            }),
+            glitch: timings.map(|t| crate::filter::glitch_len_for(t.clocks_per_bit()).into()),
+            tsyn: timings.map(|t| t.clocks_for(2 * TSYN_BITS as u64 - 1, 2)),
         }
     }
 
     /// Idle clocks that make TSYN at `baud`.
     pub fn tsyn_clocks(&self, baud: Baud) -> Tick {
-        self.windows[baud.index()].tsyn
+        self.tsyn[baud.index()]
     }
 
     /// One clock at `now` (`fell`, `rose`: the line changed on it). Returns a detection or a
@@ -228,29 +221,30 @@ impl AutoBaud {
     pub fn pass_edge(&self, now: Tick, rose: bool, q: &mut AutoBaudQ) {
         let mut changed = false;
         // A rise only goes on measurements under way.
-        let measure = !rose || q.measuring;
-        for r in (0..RATES).filter(|_| measure) {
-            let c = &mut q.channels[r];
-            // A fall after a high longer than a glitch, after TSYN of idle line, starts a
-            // measurement: one under way then started on a glitch (or is no delimiter), and is
-            // replaced. After a shorter high the line was low but for a glitch: the fall goes
-            // on a measurement's start bit, which a glitch cut.
-            if !rose
-                && now - q.last_edge.min(now) > self.glitch[r]
-                && now - q.high_since[r].min(now) >= self.tsyn[r]
-            {
-                changed = true;
-                c.measuring = true;
-                c.t0 = now;
-                c.n_edges = 0;
-            } else if c.measuring {
-                if c.n_edges as usize == MAX_EDGES {
-                    // More edges than a character and its glitches have: not one of this rate.
+        if !rose || q.measuring {
+            for r in 0..RATES {
+                let c = &mut q.channels[r];
+                // A fall after a high longer than a glitch, after TSYN of idle line, starts a
+                // measurement: one under way then started on a glitch (or is no delimiter), and is
+                // replaced. After a shorter high the line was low but for a glitch: the fall goes
+                // on a measurement's start bit, which a glitch cut.
+                if !rose
+                    && now - q.last_edge.min(now) > self.glitch[r]
+                    && now - q.high_since[r].min(now) >= self.tsyn[r]
+                {
                     changed = true;
-                    c.measuring = false;
-                } else {
-                    c.edges[c.n_edges as usize] = (now - c.t0).min(u32::MAX as u64) as u32;
-                    c.n_edges += 1;
+                    c.measuring = true;
+                    c.t0 = now;
+                    c.n_edges = 0;
+                } else if c.measuring {
+                    if c.n_edges as usize == MAX_EDGES {
+                        // More edges than a character and its glitches have: not one of this rate.
+                        changed = true;
+                        c.measuring = false;
+                    } else {
+                        c.edges[c.n_edges as usize] = (now - c.t0).min(u32::MAX as u64) as u32;
+                        c.n_edges += 1;
+                    }
                 }
             }
         }
@@ -316,7 +310,7 @@ impl AutoBaud {
 
     /// Ticks with the line constant at `level` before the search decides anything that
     /// shows. With the receiver on a rate (`heard`) only a detection at another rate shows, so
-    /// fast mode passes over the decisions that cannot be one ([`AutoBaud::unseen`]), and
+    /// fast mode passes over the decisions that cannot be one (`unseen`), and
     /// [`AutoBaud::retire`] ends them afterwards: inside a telegram at a slow rate the faster
     /// channels start on most of its falls, and every telegram's delimiter is measured at its
     /// own rate too; fast mode would stop on each of their decisions.

@@ -303,6 +303,12 @@ impl Transceiver {
         Tick::from(self.filter_len - SEARCH_FILTER_LEN)
     }
 
+    /// The rate the receiver is on (locked or on trial): the search's decisions at it, and its
+    /// rejections, change nothing then.
+    fn heard(&self) -> Option<Baud> {
+        self.rx.and(self.state.baud())
+    }
+
     fn idle(&self) -> Tick {
         self.now.saturating_sub(self.quiet_since)
     }
@@ -331,9 +337,8 @@ impl Transceiver {
         // The search's own early exit, here: the rate heard is worth working out on its events
         // only (the search runs on every clock).
         let det = if sf.fell || sf.rose || now >= self.search_q.deadline {
-            let heard = self.rx.and(self.state.baud());
             self.search
-                .clock(now, sf.fell, sf.rose, heard, &mut self.search_q)
+                .clock(now, sf.fell, sf.rose, self.heard(), &mut self.search_q)
         } else {
             None
         };
@@ -597,8 +602,11 @@ impl Transceiver {
         if self.search_flip_is_idle_only(line) {
             search_quiet = Tick::MAX;
         }
-        let heard = self.rx.and(self.state.baud());
-        let mut quiet = search_quiet.min(self.search.quiet_for(now, line, heard, &self.search_q));
+        let mut quiet =
+            search_quiet.min(
+                self.search
+                    .quiet_for(now, line, self.heard(), &self.search_q),
+            );
         let Some(rx) = &self.rx else {
             return quiet;
         };
@@ -657,9 +665,8 @@ impl Transceiver {
             self.keep_line_edge(at);
             self.search.pass_edge(at, line, &mut self.search_q);
         }
-        let heard = self.rx.and(self.state.baud());
         self.search
-            .retire(self.now, line, heard, &mut self.search_q);
+            .retire(self.now, line, self.heard(), &mut self.search_q);
         if self.rx.is_some() && !level && !self.rx_q.active {
             self.quiet_since = self.now.saturating_sub(self.rx_late());
         }

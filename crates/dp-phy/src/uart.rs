@@ -417,9 +417,6 @@ pub struct UartTx {
     /// The output, registered at each bit boundary: read on every clock, so not recomputed
     /// from the character on each one.
     out: Option<bool>,
-    /// Bit boundaries after the current one that keep the output (bounded look-ahead), worked
-    /// out once per bit when fast mode first asks: `None` until then.
-    run_bits: core::cell::Cell<Option<u32>>,
     /// What [`quiet_for`](Self::quiet_for) answered, counted down as the clocks it allowed pass
     /// (the boundary it names stays where it is): `None` until asked again.
     quiet: core::cell::Cell<Option<Tick>>,
@@ -433,7 +430,6 @@ impl UartTx {
             timing,
             q: TX_RESET,
             out: None,
-            run_bits: core::cell::Cell::new(None),
             quiet: core::cell::Cell::new(None),
             buf: Vec::with_capacity(dp_consts::MAX_TELEGRAM_LEN),
             faults: Vec::new(),
@@ -466,7 +462,6 @@ impl UartTx {
             sending: idle_bits == 0 && !bytes.is_empty(),
         };
         self.out = self.drive_at(&self.q);
-        self.run_bits.set(None);
         self.quiet.set(None);
     }
 
@@ -499,7 +494,6 @@ impl UartTx {
         self.q.ph = p - self.timing.modulo;
         self.q = self.after_boundary(&self.q);
         self.out = self.drive_at(&self.q);
-        self.run_bits.set(None);
         self.quiet.set(None);
     }
 
@@ -547,13 +541,10 @@ impl UartTx {
             return quiet;
         }
         const LOOK_AHEAD_BITS: u32 = 24;
-        let run_bits = self.run_bits.get().unwrap_or_else(|| {
+        let run_bits = if self.q.idle_bits > 1 && self.out.is_none() {
             // Idle bit times keep the line undriven up to the last of them.
-            if self.q.idle_bits > 1 && self.out.is_none() {
-                let run = self.q.idle_bits - 1;
-                self.run_bits.set(Some(run));
-                return run;
-            }
+            self.q.idle_bits - 1
+        } else {
             let mut q = self.q;
             let mut run = 0;
             while run < LOOK_AHEAD_BITS {
@@ -564,9 +555,8 @@ impl UartTx {
                 }
                 run += 1;
             }
-            self.run_bits.set(Some(run));
             run
-        });
+        };
         // Phase still to accumulate to reach the boundary that changes the output; the
         // boundary tick itself is left to `tick`.
         let phase = self.timing.modulo - self.q.ph + u64::from(run_bits) * self.timing.modulo;
@@ -588,9 +578,6 @@ impl UartTx {
             if crossed < u64::from(self.q.idle_bits) {
                 self.q.ph = self.q.ph + left * self.timing.inc - crossed * self.timing.modulo;
                 self.q.idle_bits -= crossed as u32;
-                if crossed > 0 {
-                    self.run_bits.set(None);
-                }
                 return;
             }
         }
@@ -605,7 +592,6 @@ impl UartTx {
                 self.q.bit = (pos % 11) as u8;
                 self.q.sending = (self.q.index as usize) < self.buf.len();
                 self.out = self.drive_at(&self.q);
-                self.run_bits.set(None);
             }
             return;
         }
@@ -618,7 +604,6 @@ impl UartTx {
             self.q.ph = self.q.ph + to_boundary * self.timing.inc - self.timing.modulo;
             self.q = self.after_boundary(&self.q);
             self.out = self.drive_at(&self.q);
-            self.run_bits.set(None);
             left -= to_boundary;
         }
     }

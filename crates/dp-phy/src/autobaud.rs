@@ -4,10 +4,11 @@
 //! they do. This block instead listens at all ten rates at once. Each rate's channel sees the
 //! idle line with that rate's glitches removed (a pulse of at most half its bit: a real one
 //! lasts a bit), and starts a measurement at a fall after TSYN (33 of its bits) of idle line. At
-//! the middle of the stop bit (10.5 of its bits after the start edge) it replays the recorded
-//! edges: each bit is the level the line held for longer within it (a glitch of the rate is
-//! shorter than half a bit, so it cannot turn one, nor can an edge it moved; a tie is nothing),
-//! and the character must have a start bit, even parity and a stop bit, and be a start delimiter
+//! the middle of the stop bit (10.5 of its bits after the start edge; at its end if the line is
+//! low there) it replays the recorded edges: each bit is the level the line held for longer
+//! within it (a glitch of the rate is shorter than half a bit, so it cannot turn one, nor can an
+//! edge it moved; a tie is nothing), the edges off the bit grid must be one glitch's at most, and
+//! the character must have a start bit, even parity and a stop bit, and be a start delimiter
 //! (SD1 `10`, SD2 `68`, SD3 `A2`, SD4 `DC`). Then the rate and the decoded first character are
 //! handed to the receiver, which goes on with the rest of the telegram, so nothing is lost.
 //!
@@ -23,12 +24,15 @@
 //! rate never holds up the fast ones (a master that changes its rate is heard at once), and a
 //! glitch in the idle line or in the delimiter costs nothing at the rate it is a glitch of.
 //!
-//! A channel follows the idle line the way the receiver's filter does, by edges: an edge that
+//! A channel follows the idle line with its rate's glitches removed, by edges: an edge that
 //! comes within the rate's glitch length of the last one it kept cancels that one (the pulse
-//! between them never was). A fall after TSYN of that line starts a measurement, replacing one
-//! under way (which a glitch started). A channel works on edges and on its decision tick only, so
-//! fast mode passes edges to it (`pass_edge`) and stops only where a measurement starts or a
-//! decision falls due.
+//! between them never was). A fall after TSYN of that line, and after a high longer than a
+//! glitch, starts a measurement, replacing one under way (which a glitch started). A fall after
+//! a shorter high, inside the start bit, is a second candidate start: a high glitch in the start
+//! bit and a low glitch just before it leave the same edges, so the decision reads the
+//! character from both starts (two different delimiters are none). A channel works on edges and
+//! on its decision tick only, so fast mode stops there, and passes over decisions that cannot
+//! show while a rate is known ([`AutoBaud::quiet_for`], [`AutoBaud::retire`]).
 //!
 //! A detection is only a candidate: the lock is confirmed by the transceiver when the whole
 //! telegram arrives without error. Anything that fails a check is dropped and that rate's
@@ -40,6 +44,10 @@ use dp_consts::{Baud, SD1, SD2, SD3, SD4, TSYN_BITS};
 /// Edges one measurement keeps at most: a character's 10 changes of level, and the glitches of
 /// the rate that are still to be cancelled.
 const MAX_EDGES: usize = 16;
+
+/// Glitches a delimiter may hold, read from either start: one. The search decides the rate, so
+/// it is stricter than the receiver, which takes two in a character.
+const MAX_GLITCHES: u32 = 1;
 
 /// The rates, one channel each (index into `Baud::ALL`, 9.6k first).
 const RATES: usize = 10;
@@ -75,6 +83,14 @@ pub struct ChannelQ {
     /// Edge times relative to `t0`.
     pub edges: [u32; MAX_EDGES],
     pub n_edges: u8,
+    /// A second candidate start, relative to `t0` (0: none): a fall inside the start bit after a
+    /// high no longer than a glitch. Either fall may be the start (a high glitch in the start
+    /// bit, or a low one just before it), so the decision reads the character from both.
+    pub alt: u32,
+    /// The tick of the decision: the middle of the last candidate's stop bit, or its end.
+    pub decide_at: Tick,
+    /// The line was low at the stop bit's middle: the decision weighs the whole stop bit.
+    pub deferred: bool,
 }
 
 const CHANNEL_RESET: ChannelQ = ChannelQ {
@@ -82,6 +98,9 @@ const CHANNEL_RESET: ChannelQ = ChannelQ {
     t0: 0,
     edges: [0; MAX_EDGES],
     n_edges: 0,
+    alt: 0,
+    decide_at: 0,
+    deferred: false,
 };
 
 /// Registers of the search. Each rate follows the idle line in three registers, kept as arrays
@@ -95,8 +114,9 @@ pub struct AutoBaudQ {
     pub pending: [Tick; RATES],
     pub high_since: [Tick; RATES],
     pub high_before: [Tick; RATES],
-    /// The line's last edge, glitch or not.
+    /// The line's last edge, glitch or not, and its level after it.
     pub last_edge: Tick,
+    pub level: bool,
     pub channels: [ChannelQ; RATES],
     /// Some channel is measuring.
     pub measuring: bool,
@@ -109,6 +129,7 @@ pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
     high_since: [0; RATES],
     high_before: [0; RATES],
     last_edge: 0,
+    level: true,
     channels: [CHANNEL_RESET; RATES],
     measuring: false,
     deadline: Tick::MAX,
@@ -132,8 +153,9 @@ struct RateWindow {
     /// Bit period: `modulo / inc` clocks, exact.
     inc: u64,
     modulo: u64,
-    /// Relative tick at which the stop bit's middle is reached.
-    decide_at: u64,
+    /// Relative ticks at which the stop bit's middle and its end are reached.
+    stop_middle: u64,
+    stop_end: u64,
 }
 
 /// The search block's fixed configuration.
@@ -154,7 +176,8 @@ impl AutoBaud {
             windows: timings.map(|t| RateWindow {
                 inc: t.inc,
                 modulo: t.modulo,
-                decide_at: t.clocks_for(21, 2),
+                stop_middle: t.clocks_for(21, 2),
+                stop_end: t.clocks_for(11, 1),
             }),
             glitch: timings.map(|t| crate::filter::glitch_len_for(t.clocks_per_bit()).into()),
             tsyn: timings.map(|t| t.clocks_for(2 * TSYN_BITS as u64 - 1, 2)),
@@ -191,9 +214,17 @@ impl AutoBaud {
         }
         // Decisions due, the fastest rate first: a detection goes before any rejection.
         let mut out = None;
+        let level = q.level;
         for r in (0..RATES).rev() {
             let c = &mut q.channels[r];
-            if !c.measuring || now < c.t0 + self.windows[r].decide_at {
+            if !c.measuring || now < c.decide_at {
+                continue;
+            }
+            if !level && !c.deferred {
+                // Low at the stop bit's middle: a glitch there, or no stop bit; the whole stop
+                // bit tells.
+                c.deferred = true;
+                c.decide_at = c.t0 + u64::from(c.alt) + self.windows[r].stop_end;
                 continue;
             }
             c.measuring = false;
@@ -213,12 +244,12 @@ impl AutoBaud {
     }
 
     /// A change of the line at `now` (it rose, or fell), into every channel. Nothing is decided
-    /// on an edge, so fast mode passes edges here without stopping on them.
+    /// on an edge.
     ///
     /// The measurements keep the edges as they are (a decision weighs each bit whole, which a
     /// glitch of the rate cannot turn); the idle line is followed with each rate's glitches
     /// removed: an edge within the glitch length of the last one kept cancels both.
-    pub fn pass_edge(&self, now: Tick, rose: bool, q: &mut AutoBaudQ) {
+    fn pass_edge(&self, now: Tick, rose: bool, q: &mut AutoBaudQ) {
         let mut changed = false;
         // A rise only goes on measurements under way.
         if !rose || q.measuring {
@@ -226,24 +257,34 @@ impl AutoBaud {
                 let c = &mut q.channels[r];
                 // A fall after a high longer than a glitch, after TSYN of idle line, starts a
                 // measurement: one under way then started on a glitch (or is no delimiter), and is
-                // replaced. After a shorter high the line was low but for a glitch: the fall goes
-                // on a measurement's start bit, which a glitch cut.
-                if !rose
-                    && now - q.last_edge.min(now) > self.glitch[r]
-                    && now - q.high_since[r].min(now) >= self.tsyn[r]
-                {
+                // replaced. After a shorter high, inside the start bit, the fall is a second
+                // candidate start: the high was a glitch in the start bit, or the first low was
+                // one before it.
+                let after_glitch = now - q.last_edge.min(now) <= self.glitch[r];
+                if !rose && !after_glitch && now - q.high_since[r].min(now) >= self.tsyn[r] {
                     changed = true;
-                    c.measuring = true;
-                    c.t0 = now;
-                    c.n_edges = 0;
+                    *c = ChannelQ {
+                        measuring: true,
+                        t0: now,
+                        decide_at: now + self.windows[r].stop_middle,
+                        ..CHANNEL_RESET
+                    };
                 } else if c.measuring {
                     if c.n_edges as usize == MAX_EDGES {
                         // More edges than a character and its glitches have: not one of this rate.
                         changed = true;
                         c.measuring = false;
                     } else {
-                        c.edges[c.n_edges as usize] = (now - c.t0).min(u32::MAX as u64) as u32;
+                        let at = (now - c.t0).min(u32::MAX as u64) as u32;
+                        c.edges[c.n_edges as usize] = at;
                         c.n_edges += 1;
+                        let w = &self.windows[r];
+                        if !rose && after_glitch && u64::from(at) * w.inc < w.modulo {
+                            changed = true;
+                            c.alt = at;
+                            c.decide_at = now + w.stop_middle;
+                            c.deferred = false;
+                        }
                     }
                 }
             }
@@ -260,6 +301,7 @@ impl AutoBaud {
             q.pending[r] = if cancels { Tick::MAX } else { now };
         }
         q.last_edge = now;
+        q.level = rose;
         if changed {
             self.update_deadline(q);
         }
@@ -267,27 +309,64 @@ impl AutoBaud {
 
     fn update_deadline(&self, q: &mut AutoBaudQ) {
         let mut deadline = Tick::MAX;
-        for (w, c) in self.windows.iter().zip(&q.channels) {
+        for c in &q.channels {
             if c.measuring {
-                deadline = deadline.min(c.t0 + w.decide_at);
+                deadline = deadline.min(c.decide_at);
             }
         }
         q.deadline = deadline;
         q.measuring = deadline != Tick::MAX;
     }
 
-    /// The character channel `r` measured, each bit taken by the level it held longer.
+    /// The character channel `r` measured, each bit taken by the level it held longer: read
+    /// from its start and, if it has one, from its second candidate start. Two different
+    /// delimiters are none (the line does not say which it was).
     fn decide(&self, r: usize, c: &ChannelQ) -> Result<Detection, Reject> {
+        let from_start = self.read_from(r, c, 0);
+        let (byte, offset) = if c.alt == 0 {
+            (from_start?, 0)
+        } else {
+            match (from_start, self.read_from(r, c, c.alt)) {
+                (Ok(a), Ok(b)) if a != b => return Err(Reject::OffGrid),
+                (Ok(a), _) => (a, 0),
+                (_, Ok(b)) => (b, c.alt),
+                (Err(e), _) => return Err(e),
+            }
+        };
         let w = &self.windows[r];
-        let edges = &c.edges[..c.n_edges as usize];
+        let start = c.t0 + u64::from(offset);
+        Ok(Detection {
+            baud: Baud::ALL[r],
+            byte,
+            start,
+            end: start + w.stop_end,
+        })
+    }
+
+    /// The start delimiter channel `r` measured from `offset` after its start (a fall).
+    fn read_from(&self, r: usize, c: &ChannelQ, offset: u32) -> Result<u8, Reject> {
+        let w = &self.windows[r];
         let mut scaled = [0u64; MAX_EDGES];
-        for (s, &e) in scaled.iter_mut().zip(edges) {
-            *s = u64::from(e) * w.inc;
+        let mut n = 0;
+        for &e in c.edges[..c.n_edges as usize]
+            .iter()
+            .filter(|&&e| e > offset)
+        {
+            let at = u64::from(e - offset) * w.inc;
+            if at >= 11 * w.modulo {
+                break;
+            }
+            scaled[n] = at;
+            n += 1;
         }
         // Low from the start edge; a glitch of the rate is shorter than half a bit, so a tie
         // is none of it.
-        let shift = crate::uart::bits_by_longer_level(&scaled[..edges.len()], false, w.modulo, 11)
-            .ok_or(Reject::OffGrid)?;
+        let edges = &scaled[..n];
+        let shift =
+            crate::uart::bits_by_longer_level(edges, false, w.modulo, 11).ok_or(Reject::OffGrid)?;
+        if crate::uart::glitches_off_grid(edges, w.modulo) > MAX_GLITCHES {
+            return Err(Reject::OffGrid);
+        }
         let byte = (shift >> 1) as u8;
         let parity_ok = (shift >> 9 & 1 == 1) == crate::uart::parity_bit(byte);
         if shift & 1 != 0 || shift >> 10 & 1 != 1 || !parity_ok {
@@ -296,16 +375,7 @@ impl AutoBaud {
         if ![SD1, SD2, SD3, SD4].contains(&byte) {
             return Err(Reject::NotADelimiter);
         }
-        let t = crate::BitTiming {
-            inc: w.inc,
-            modulo: w.modulo,
-        };
-        Ok(Detection {
-            baud: Baud::ALL[r],
-            byte,
-            start: c.t0,
-            end: c.t0 + t.clocks_for(11, 1),
-        })
+        Ok(byte)
     }
 
     /// Ticks with the line constant at `level` before the search decides anything that
@@ -319,9 +389,9 @@ impl AutoBaud {
             return Tick::MAX;
         }
         let mut deadline = Tick::MAX;
-        for (r, (w, c)) in self.windows.iter().zip(&q.channels).enumerate() {
+        for (r, c) in q.channels.iter().enumerate() {
             if c.measuring && !unseen(r, c, level, heard) {
-                deadline = deadline.min(c.t0 + w.decide_at);
+                deadline = deadline.min(c.decide_at);
             }
         }
         deadline.saturating_sub(now + 1)
@@ -333,8 +403,8 @@ impl AutoBaud {
         if now <= q.deadline {
             return;
         }
-        for (r, (w, c)) in self.windows.iter().zip(&mut q.channels).enumerate() {
-            if c.measuring && c.t0 + w.decide_at < now && unseen(r, c, level, heard) {
+        for (r, c) in q.channels.iter_mut().enumerate() {
+            if c.measuring && c.decide_at < now && unseen(r, c, level, heard) {
                 c.measuring = false;
             }
         }
@@ -454,6 +524,30 @@ mod tests {
             for at in [t0 - t.clocks_for(20, 1), at_bit(1), at_bit(13), at_bit(29)] {
                 let d = decisions(baud, SD2, 40, &[(at, glitch)]);
                 assert_eq!(detected(&d), Some((baud, SD2)), "{baud} glitch at {at}");
+            }
+        }
+    }
+
+    /// A low glitch on the idle line less than half a bit before the delimiter leaves two falls
+    /// within its start bit; a high glitch in the start bit leaves the same. Both are read, and
+    /// the delimiter is taken from its real start. A low glitch at the stop bit's middle waits
+    /// for its end.
+    #[test]
+    fn a_glitch_at_the_start_or_stop_bit_costs_the_delimiter_nothing() {
+        for baud in [Baud::B9600, Baud::B187500, Baud::B1500000] {
+            let t = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
+            let t0 = t.clocks_for(40, 1);
+            let len = t.clocks_for(2, 5);
+            for gap in [t.clocks_for(1, 8), t.clocks_for(2, 5)] {
+                let before = (t0 - gap - len, len);
+                let inside = (t0 + gap, len);
+                let stop = (t0 + t.clocks_for(10, 1) + gap, len);
+                for glitch in [before, inside, stop] {
+                    let d = decisions(baud, SD2, 40, &[glitch]);
+                    assert_eq!(detected(&d), Some((baud, SD2)), "{baud} {glitch:?}");
+                    let start = d.iter().find_map(|(_, r)| r.ok()).map(|d| d.start);
+                    assert_eq!(start, Some(t0), "{baud} {glitch:?}");
+                }
             }
         }
     }

@@ -72,6 +72,36 @@ impl FaultInjector {
         }
     }
 
+    /// As [`glitches`](Self::glitches), but each at least `apart` clocks from every other (one
+    /// too close is dropped): glitches that a receiver can take, each alone in its bits. Two
+    /// inside one bit can invert it, which no receiver undoes.
+    pub fn isolated_glitches(
+        &mut self,
+        seed: u64,
+        from: Tick,
+        to: Tick,
+        count: usize,
+        max_len: Tick,
+        apart: Tick,
+    ) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for _ in 0..count {
+            let start = rng.gen_range(from..to);
+            let len = rng.gen_range(1..=max_len.max(1));
+            let near = self
+                .windows
+                .iter()
+                .any(|w| start < w.start + w.len + apart && w.start < start + len + apart);
+            if !near {
+                self.add(FaultWindow {
+                    start,
+                    len,
+                    fault: LineFault::Invert,
+                });
+            }
+        }
+    }
+
     pub fn windows(&self) -> &[FaultWindow] {
         &self.windows
     }

@@ -90,21 +90,6 @@ pub fn skip(line: bool, ticks: u64, q: &mut FilterQ) {
     }
 }
 
-/// Lets `ticks` pass with a constant `line` that the synchroniser holds already, through a
-/// change of the output if one comes: returns the offset of the clock the output flips on.
-pub fn skip_through(line: bool, len: u16, ticks: u64, q: &mut FilterQ) -> Option<u64> {
-    if q.sync == line && q.out != line {
-        let flips_at = u64::from(len.saturating_sub(q.count));
-        if ticks > flips_at {
-            q.out = line;
-            q.count = 0;
-            return Some(flips_at);
-        }
-        q.count = (u64::from(q.count) + ticks) as u16;
-    }
-    None
-}
-
 /// The filter length for a bit of `clocks_per_bit` clocks: a sixteenth of a bit, at least 1.
 pub fn len_for(clocks_per_bit: u64) -> u16 {
     (clocks_per_bit / 16).clamp(1, 15) as u16

@@ -5,8 +5,9 @@
 //! an FPGA engineer can port a block line by line. The blocks, in the order the signal meets them:
 //!
 //! ```text
-//!  line ─► GlitchFilter ─┬─► AutoBaud (a channel per rate: first delimiter ► rate + character)
-//!                        └─► UartRx (locked rate: 11-bit characters, majority vote)
+//!  line ─► Synchroniser ─┬─► AutoBaud (a channel per rate: first delimiter ► rate + character)
+//!     (its last edges)   └─► EdgeRx (known rate: 11-bit characters, each bit by the level
+//!                                    held longer, a glitch weighed where it falls)
 //!                                   └─► Delimiter (TSYN, SD1/SD2/SD3/SD4/SC, LE/LEr, FCS, ED)
 //!  response ─► UartTx (min TSDR after the request, driver enable) ─► line
 //! ```
@@ -27,6 +28,7 @@
 pub mod autobaud;
 pub mod bus;
 pub mod delimiter;
+pub mod edge_rx;
 pub mod filter;
 pub mod responder;
 pub mod station;

@@ -1,5 +1,5 @@
-//! A station's receiver at a rate it already knows (a master's UART): glitch filter, then the
-//! same 11-bit character receiver as the adapter's, with no autodetection and no delimiter.
+//! A station's receiver at a rate it already knows (a master's UART): glitch filter, then an
+//! 11-bit character receiver with a majority vote, with no autodetection and no delimiter.
 //!
 //! The receiver is gated by the station's own driver enable, as RS-485 transceivers with /RE
 //! tied to DE are: a station does not hear itself. Characters with an error are delivered with

@@ -16,12 +16,11 @@
 //! - While **locked**, the baud-control watchdog (ticks of 10 ms) is restarted by every good
 //!   telegram; when it expires (between telegrams: a long one at 9.6k outlasts it) the
 //!   transceiver searches again: the last resort, for a master the relock did not catch.
-//! - The receiver runs behind a glitch filter of half a bit at its rate (a real pulse lasts a
-//!   bit): glitches inside a telegram cost nothing. Where a glitch follows an edge within half a
-//!   bit the filter drops that edge too, moving it; so each character is taken again from the
-//!   line's last edges, every bit by the level it held longer (`Transceiver::retake`), which
-//!   a glitch cannot turn. Its characters and
-//!   its idle line are dated back by the filter's extra delay, so times are the line's.
+//! - The receiver ([`EdgeRx`]) takes each character from the line's edges, every bit by the level
+//!   the line held longer within it: a glitch shorter than half a bit cannot turn a bit, nor an
+//!   edge it moved, so glitches inside a telegram cost nothing. Where a glitch leaves two falls
+//!   within a start bit, it reads the character from both. Its characters and idle line are
+//!   the line's times: no filter holds the line back.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
 //! - A response handed to [`Transceiver::respond`] starts no earlier than min TSDR bit times after
@@ -33,8 +32,9 @@
 
 use crate::autobaud::{AutoBaud, AutoBaudQ, Detection, AUTOBAUD_RESET};
 use crate::delimiter::{Delimiter, Delivery, RxTelegram};
+use crate::edge_rx::{EdgeRx, EdgeRxQ, LineEdges, EDGE_RX_RESET};
 use crate::filter::{self, FilterQ, FILTER_RESET};
-use crate::uart::{RxChar, RxQ, UartRx, UartTx, RX_RESET};
+use crate::uart::{RxChar, UartTx};
 use crate::{BitTiming, Tick};
 use dp_consts::{Baud, MIN_TSDR_BITS, SC};
 
@@ -126,33 +126,25 @@ pub struct Transceiver {
     state: BaudState,
     search: AutoBaud,
     /// Receiver, transmitter and delimiter thresholds exist once a rate is known.
-    rx: Option<UartRx>,
+    rx: Option<EdgeRx>,
     tx: Option<UartTx>,
     delimiter: Delimiter,
-    /// The receiver's filter, its length set for the rate (runs while a rate is known).
-    filter_q: FilterQ,
-    filter_len: u16,
-    rx_q: RxQ,
-    /// The search's own filter, always [`SEARCH_FILTER_LEN`]: it must see every rate's pulses.
-    search_filter_q: FilterQ,
+    rx_q: EdgeRxQ,
+    /// The synchroniser the search and the receiver share: the line in the clock domain.
+    sync_q: FilterQ,
     search_q: AutoBaudQ,
-    /// The last edges of the search's line, oldest first from `line_edges_seen % EDGES_KEPT`:
-    /// the receiver's characters are taken again from them, each data bit by the level the line
-    /// held longer within it (`Transceiver::retake`).
-    line_edges: [Tick; EDGES_KEPT],
-    line_edges_seen: u64,
+    /// The last edges of the synchronised line: the receiver takes its characters from them.
+    edges: LineEdges,
     /// The tick the trial under way started on: a detection of a character that began before
     /// it is of the trial's own start delimiter, at a slower rate.
     trial_since: Tick,
     /// During a trial started from a lock: that lock, to return to if the trial fails.
     fallback: Option<Baud>,
-    /// The receiver's line has been idle (high, no character under way) since this tick.
-    quiet_since: Tick,
+    /// The last character taken ends on this tick (its stop bit's end).
+    last_end: Tick,
     /// The last tick the transmitter drove the line: a character that started by then is the
     /// transceiver's own echo.
     drove_until: Tick,
-    /// Idle clocks before the character the receiver is taking in.
-    rx_idle_before: Tick,
     watchdog_at: Tick,
     watchdog_clocks: Tick,
     min_tsdr_bits: u8,
@@ -162,20 +154,10 @@ pub struct Transceiver {
     stats: Stats,
 }
 
-/// The search filters only single-clock glitches: a 12 Mbit/s bit is 4 clocks at 48 MHz.
-const SEARCH_FILTER_LEN: u16 = 1;
-
-/// The changes of level from the start bit of a good character `byte` to its stop bit.
-fn transitions(byte: u8) -> u32 {
-    // Bits 0-10 in a word: start 0, data, parity, stop 1; a change wherever two neighbours differ.
-    let parity = u16::from(crate::uart::parity_bit(byte));
-    let word = u16::from(byte) << 1 | parity << 9 | 1 << 10;
-    ((word ^ word >> 1) & 0x3FF).count_ones()
-}
-
-/// Edges of the line kept to take a character again: its 10 changes and glitches besides (a
-/// power of two: a ring).
-const EDGES_KEPT: usize = 32;
+/// The line is taken into the clock domain with no glitch filter: every glitch is weighed, bit by
+/// bit, where it falls. A filter would move an edge that a glitch follows within its length: by
+/// half a bit at 12 Mbit/s (4 clocks at 48 MHz) even for a filter of one clock.
+const SYNC_FILTER_LEN: u16 = 0;
 
 impl Transceiver {
     pub fn new(cfg: Config) -> Self {
@@ -187,18 +169,14 @@ impl Transceiver {
             rx: None,
             tx: None,
             delimiter: Delimiter::new(0, 0),
-            filter_q: FILTER_RESET,
-            filter_len: SEARCH_FILTER_LEN,
-            rx_q: RX_RESET,
-            search_filter_q: FILTER_RESET,
+            rx_q: EDGE_RX_RESET,
+            sync_q: FILTER_RESET,
             search_q: AUTOBAUD_RESET,
             trial_since: 0,
-            line_edges: [0; EDGES_KEPT],
-            line_edges_seen: 0,
+            edges: LineEdges::EMPTY,
             fallback: None,
-            quiet_since: 0,
+            last_end: 0,
             drove_until: 0,
-            rx_idle_before: 0,
             watchdog_at: Tick::MAX,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
             min_tsdr_bits: MIN_TSDR_BITS,
@@ -213,7 +191,7 @@ impl Transceiver {
     pub fn reset_at(cfg: Config, now: Tick) -> Self {
         Transceiver {
             now,
-            quiet_since: now,
+            last_end: now,
             search_q: AutoBaudQ::idle_since(now),
             ..Transceiver::new(cfg)
         }
@@ -253,13 +231,11 @@ impl Transceiver {
     /// Internal signals, for waveforms.
     pub fn probe(&self) -> Probe {
         Probe {
-            filtered: if self.rx.is_some() {
-                self.filter_q.out
-            } else {
-                self.search_filter_q.out
-            },
-            rx_active: self.rx_q.active,
-            rx_bit: self.rx_q.bit,
+            filtered: self.sync_q.out,
+            rx_active: self.rx_q.active(),
+            rx_bit: self
+                .rx
+                .map_or(0, |rx| rx.bit_at(self.now, &self.edges, &self.rx_q)),
             measuring: self.search_q.measuring,
             in_telegram: self.delimiter.inside(),
             driver_enable: self.drive().is_some(),
@@ -296,21 +272,26 @@ impl Transceiver {
         self.tx.as_ref().and_then(|t| t.drive())
     }
 
-    /// The receiver's filter drops every pulse shorter than half a bit, so it holds each edge
-    /// back that long: its characters and its idle line are dated this many clocks earlier, as
-    /// the search's filter dates them.
-    fn rx_late(&self) -> Tick {
-        Tick::from(self.filter_len - SEARCH_FILTER_LEN)
-    }
-
     /// The rate the receiver is on (locked or on trial): the search's decisions at it, and its
     /// rejections, change nothing then.
     fn heard(&self) -> Option<Baud> {
         self.rx.and(self.state.baud())
     }
 
+    /// The tick the line has been idle since at the receiver's rate: high, that rate's
+    /// glitches aside, since the last character ended. `now` while it is not idle (low, or a
+    /// character under way).
+    fn quiet_since(&self) -> Tick {
+        match self.heard() {
+            Some(b) if self.sync_q.out && !self.rx_q.active() => {
+                self.last_end.max(self.search_q.high_since[b.index()])
+            }
+            _ => self.now,
+        }
+    }
+
     fn idle(&self) -> Tick {
-        self.now.saturating_sub(self.quiet_since)
+        self.now.saturating_sub(self.quiet_since())
     }
 
     /// The tick at which a waiting response may start.
@@ -321,7 +302,7 @@ impl Transceiver {
             .as_ref()?
             .timing
             .clocks_for(self.min_tsdr_bits as u64, 1);
-        Some(not_before.max(self.quiet_since + tsdr))
+        Some(not_before.max(self.quiet_since() + tsdr))
     }
 
     /// One clock with the line at `line`.
@@ -329,10 +310,16 @@ impl Transceiver {
     pub fn tick(&mut self, line: bool) -> TickOut {
         let mut out = TickOut::default();
         let now = self.now;
-        let (sf, sfq) = filter::next(line, SEARCH_FILTER_LEN, &self.search_filter_q);
-        self.search_filter_q = sfq;
+        // Idle before this clock's edge: a character's TSYN.
+        let idle_before = self.idle();
+        let (sf, sfq) = filter::next(line, SYNC_FILTER_LEN, &self.sync_q);
+        self.sync_q = sfq;
         if sf.fell || sf.rose {
-            self.keep_line_edge(now);
+            self.edges.push(now, sf.rose);
+            if let (Some(rx), true) = (&self.rx, sf.fell) {
+                let n = self.edges.seen() - 1;
+                rx.on_fall(n, idle_before, &self.edges, &mut self.rx_q);
+            }
         }
         // The search's own early exit, here: the rate heard is worth working out on its events
         // only (the search runs on every clock).
@@ -353,29 +340,16 @@ impl Transceiver {
             None => false,
         };
 
-        if let (Some(rx), false) = (&self.rx, switched) {
-            let (f, fq) = filter::next(line, self.filter_len, &self.filter_q);
-            let (c, rq) = rx.next(now, f.level, f.fell, &self.rx_q);
-            self.filter_q = fq;
-            let late = self.rx_late();
-            if rq.active && !self.rx_q.active {
-                self.rx_idle_before = self.idle().saturating_sub(late);
+        if let (Some(rx), false) = (self.rx, switched) {
+            if now >= self.rx_q.deadline {
+                if let Some((c, idle_before)) = rx.act(now, sf.level, &self.edges, &mut self.rx_q) {
+                    self.last_end = c.end;
+                    if c.start > self.drove_until {
+                        self.on_char(&c, idle_before, &mut out);
+                    }
+                }
             }
-            self.rx_q = rq;
-            if let Some(c) = c {
-                let c = self.retake(&RxChar {
-                    start: c.start.saturating_sub(late),
-                    end: c.end.saturating_sub(late),
-                    ..c
-                });
-                self.quiet_since = c.end;
-                if c.start > self.drove_until {
-                    self.on_char(&c, self.rx_idle_before, &mut out);
-                }
-            } else if !rq.active {
-                if !f.level {
-                    self.quiet_since = (now + 1).saturating_sub(late);
-                }
+            if !self.rx_q.active() {
                 let d = self.delimiter.on_idle(self.idle(), now);
                 self.on_delivery(d, &mut out);
             }
@@ -417,7 +391,10 @@ impl Transceiver {
             BaudState::Trial(_) => {}
         }
         self.start_trial(d.baud, out);
-        self.quiet_since = d.end;
+        self.last_end = d.end;
+        if let Some(rx) = self.rx {
+            rx.catch_up(d.start, d.end, &self.edges, &mut self.rx_q);
+        }
         let c = RxChar {
             byte: d.byte,
             error: None,
@@ -427,77 +404,6 @@ impl Transceiver {
         // The search has checked TSYN before this character already.
         self.on_char(&c, Tick::MAX, out);
         true
-    }
-
-    fn keep_line_edge(&mut self, at: Tick) {
-        self.line_edges[(self.line_edges_seen & (EDGES_KEPT as u64 - 1)) as usize] = at;
-        self.line_edges_seen += 1;
-    }
-
-    /// The receiver's character `c` with its start, data and parity bits taken again from the
-    /// line's edges, each by the level the line held longer within it: a glitch shorter than
-    /// half a bit cannot turn a bit so, even where it moved an edge (the receiver's half-bit
-    /// filter drops an edge that a glitch follows within half a bit, so its samples can land on
-    /// the wrong side of a bit boundary). A bit that held both levels equally long, or a start
-    /// bit taken high, is `Noise`; so is a character older than the edges kept. Break, framing
-    /// (its stop bit) and a start after a false start stay the receiver's.
-    fn retake(&self, c: &RxChar) -> RxChar {
-        use crate::uart::CharError;
-        if matches!(c.error, Some(CharError::Break | CharError::Framing)) {
-            return *c;
-        }
-        let Some(timing) = self.rx.map(|rx| rx.timing) else {
-            return *c;
-        };
-        let noise = RxChar {
-            error: Some(CharError::Noise),
-            ..*c
-        };
-        let kept = self.line_edges_seen.min(EDGES_KEPT as u64);
-        let mask = EDGES_KEPT as u64 - 1;
-        let oldest = self.line_edges_seen - kept;
-        let edge = |i: u64| self.line_edges[((oldest + i) & mask) as usize];
-        // The edges after the start (found from the newest back: a character is recent); the
-        // level at the start from their number.
-        let mut first = kept;
-        while first > 0 && edge(first - 1) > c.start {
-            first -= 1;
-        }
-        if first == 0 && self.line_edges_seen > kept {
-            return noise;
-        }
-        // A good character whose line changed exactly where its bits change had no glitch:
-        // the receiver's samples are its levels (most characters, so worth the shortcut).
-        if c.error.is_none() && kept - first == u64::from(transitions(c.byte)) {
-            return *c;
-        }
-        let (m, inc) = (timing.modulo, timing.inc);
-        let level = self.search_filter_q.out ^ ((kept - first) % 2 == 1);
-        // The edges inside bits 0-9, in phase units from the start: bit k is [k, k + 1) x m.
-        let mut rel = [0u64; EDGES_KEPT];
-        let mut n = 0;
-        for i in first..kept {
-            let e = (edge(i) - c.start) * inc;
-            if e >= 10 * m {
-                break;
-            }
-            rel[n] = e;
-            n += 1;
-        }
-        let Some(bits) = crate::uart::bits_by_longer_level(&rel[..n], level, m, 10) else {
-            return noise;
-        };
-        let byte = (bits >> 1) as u8;
-        let error = if bits & 1 != 0 {
-            Some(CharError::Noise)
-        } else if (bits >> 9 & 1 == 1) != crate::uart::parity_bit(byte) {
-            Some(CharError::Parity)
-        } else if c.error == Some(CharError::Noise) {
-            c.error
-        } else {
-            None
-        };
-        RxChar { byte, error, ..*c }
     }
 
     fn on_char(&mut self, c: &RxChar, idle_before: Tick, out: &mut TickOut) {
@@ -554,21 +460,23 @@ impl Transceiver {
         self.state = BaudState::Trial(baud);
         self.trial_since = self.now;
         out.baud_changed = true;
-        self.filter_q = self.search_filter_q;
         self.use_rate(baud);
         if self.fallback.is_none() {
             self.watchdog_at = self.now + self.watchdog_clocks;
         }
     }
 
-    /// Receiver, transmitter and delimiter for `baud`, from idle; a waiting response is dropped.
+    /// Receiver, transmitter and delimiter for `baud`, from idle (the line's edges until now
+    /// were at another rate); a waiting response is dropped.
     fn use_rate(&mut self, baud: Baud) {
         let timing = BitTiming::new(self.cfg.clock_hz, baud, 0);
-        self.rx = Some(UartRx::new(timing));
+        self.rx = Some(EdgeRx::new(timing));
         self.tx = Some(UartTx::new(timing));
         self.pending_not_before = None;
-        self.rx_q = RX_RESET;
-        self.filter_len = filter::glitch_len_for(timing.clocks_per_bit());
+        self.rx_q = EdgeRxQ {
+            ready_at: self.now,
+            ..EDGE_RX_RESET
+        };
         // The delimiter keeps the telegram it delivered last: a failed trial's, read after this.
         self.delimiter.tsyn_clocks = self.search.tsyn_clocks(baud);
         self.delimiter.gap_clocks = timing.clocks_for(self.cfg.max_gap_bits as u64, 1);
@@ -583,45 +491,33 @@ impl Transceiver {
         self.rx = None;
         self.tx = None;
         self.pending_not_before = None;
-        self.rx_q = RX_RESET;
-        self.filter_len = SEARCH_FILTER_LEN;
+        self.rx_q = EDGE_RX_RESET;
         self.delimiter.reset();
         self.watchdog_at = Tick::MAX;
     }
 
     /// Ticks that a constant `line` lets pass with nothing but counters moving.
     pub fn quiet_for(&self, line: bool) -> Tick {
-        // While a filter counts towards an edge, the blocks behind it see its old output: a
-        // constant level, as on a quiet line.
+        // An edge is ticked: the search and the receiver both act on it.
         let now = self.now;
-        let (mut search_quiet, _) =
-            filter::quiet_for(line, SEARCH_FILTER_LEN, &self.search_filter_q);
-        if search_quiet == 0 {
+        let (sync_quiet, _) = filter::quiet_for(line, SYNC_FILTER_LEN, &self.sync_q);
+        if sync_quiet == 0 {
             return 0;
         }
-        if self.search_flip_is_idle_only(line) {
-            search_quiet = Tick::MAX;
-        }
         let mut quiet =
-            search_quiet.min(
+            sync_quiet.min(
                 self.search
                     .quiet_for(now, line, self.heard(), &self.search_q),
             );
-        let Some(rx) = &self.rx else {
+        if self.rx.is_none() {
             return quiet;
-        };
-        let (filter_quiet, level) = filter::quiet_for(line, self.filter_len, &self.filter_q);
-        if filter_quiet == 0 {
-            return 0;
         }
-        quiet = quiet.min(filter_quiet);
-        quiet = quiet.min(if self.rx_q.active {
-            rx.quiet_for_votes(level, &self.rx_q)
-        } else if self.delimiter.inside() && level {
-            (self.quiet_since + self.delimiter.gap_clocks + 1).saturating_sub(now)
-        } else {
-            Tick::MAX
-        });
+        quiet = quiet.min(self.rx_q.deadline.saturating_sub(now));
+        let line_idle = self.sync_q.out && !self.rx_q.active();
+        if self.delimiter.inside() && line_idle {
+            let gap_at = self.quiet_since() + self.delimiter.gap_clocks + 1;
+            quiet = quiet.min(gap_at.saturating_sub(now));
+        }
         if !self.delimiter.inside() {
             quiet = quiet.min(self.watchdog_at.saturating_sub(now));
         }
@@ -634,25 +530,9 @@ impl Transceiver {
         quiet
     }
 
-    /// Whether the search filter's coming change of output, towards `line`, shows nothing at
-    /// once: with a rate known, any. The search decides only when a measurement's time is up,
-    /// never on an edge; a measurement a fall starts there decides after the skip, or, the line
-    /// staying low, can only be rejected (`AutoBaud::quiet_for`). Fast mode then passes the edge
-    /// to the search and goes on, instead of stopping twice on every edge of the locked rate.
-    fn search_flip_is_idle_only(&self, line: bool) -> bool {
-        let q = &self.search_filter_q;
-        self.rx.is_some() && q.sync == line && q.out != line
-    }
-
     /// Let `ticks` pass that [`quiet_for`](Self::quiet_for) allowed for this `line`.
     fn skip(&mut self, ticks: Tick, line: bool) {
-        let search_flip =
-            filter::skip_through(line, SEARCH_FILTER_LEN, ticks, &mut self.search_filter_q);
-        let level = self.filter_q.out;
-        if let Some(rx) = &self.rx {
-            filter::skip(line, ticks, &mut self.filter_q);
-            rx.skip_votes(ticks, level, self.now, &mut self.rx_q);
-        }
+        filter::skip(line, ticks, &mut self.sync_q);
         self.now += ticks;
         if let Some(tx) = &mut self.tx {
             tx.skip(ticks);
@@ -660,16 +540,8 @@ impl Transceiver {
         if self.drive().is_some() {
             self.drove_until = self.now - 1;
         }
-        if let Some(at) = search_flip {
-            let at = self.now - ticks + at;
-            self.keep_line_edge(at);
-            self.search.pass_edge(at, line, &mut self.search_q);
-        }
         self.search
             .retire(self.now, line, self.heard(), &mut self.search_q);
-        if self.rx.is_some() && !level && !self.rx_q.active {
-            self.quiet_since = self.now.saturating_sub(self.rx_late());
-        }
     }
 
     /// Fast mode: up to `max` clocks (at least 1) with the line at `line`, skipping spans where
@@ -681,21 +553,6 @@ impl Transceiver {
         } else {
             self.skip(quiet, line);
             (quiet, TickOut::default())
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The shortcut that keeps a clean character counts the changes of its 11 levels.
-    #[test]
-    fn transitions_count_the_changes_of_a_characters_levels() {
-        for byte in 0..=u8::MAX {
-            let bits = crate::uart::char_bits(byte);
-            let changes = bits.windows(2).filter(|w| w[0] != w[1]).count() as u32;
-            assert_eq!(transitions(byte), changes, "{byte:02x}");
         }
     }
 }

@@ -8,14 +8,14 @@
 //!                   clocks; one sample at 8/16 below that (4 clocks per bit at 12M/48 MHz)
 //! ```
 //!
-//! The receiver re-synchronises on every start edge. A start bit must stay 0 on every clock up to
-//! its last vote, or it is a false start and the receiver is ready again at once. A character
-//! whose start edge comes within a bit of a false start is reported as `Noise`: a glitch next to
-//! a start edge shifts the sampling of the whole character (several bit errors that parity may
-//! not see). Like a UART's, its bits are the samples' majority; it does not look at edges between
-//! them (the transceiver takes each bit again by the level the line held longer within it,
-//! which a glitch shorter than half a bit cannot turn, nor an edge it moved).
-//! Parity, framing (stop bit 0) and break (every bit 0) are reported too.
+//! The receiver (a master station's, [`crate::station`]) re-synchronises on every start edge. A
+//! start bit must stay 0 on every clock up to its last vote, or it is a false start and the
+//! receiver is ready again at once. A character whose start edge comes within a bit of a false
+//! start is reported as `Noise`: a glitch next to a start edge shifts the sampling of the whole
+//! character (several bit errors that parity may not see). Like a UART's, its bits are the
+//! samples' majority. Parity, framing (stop bit 0) and break (every bit 0) are reported too.
+//! The adapter's own receiver takes characters from the line's edges instead
+//! ([`crate::edge_rx`]), with [`bits_by_longer_level`] and [`glitches_off_grid`] from here.
 //! The transmitter drives a character stream back to back with driver enable asserted only while
 //! it sends; it can hold the line idle for a number of its own bit times first (a master's TSYN)
 //! and, for fault injection, flip a data bit or drop a character.
@@ -69,8 +69,8 @@ fn char_bit(byte: u8, bit: u8) -> bool {
 /// the line's changes after the start edge, ascending, in phase units (clocks times `inc` of the
 /// rate), `level` the line's level at the start edge, and a bit `modulo` units long. `None`
 /// where a bit held both levels equally long. The autobaud search decides a delimiter so, and
-/// the transceiver takes every character again so: a glitch shorter than half a bit cannot turn
-/// a bit, nor can an edge it moved.
+/// the adapter's receiver every character: a glitch shorter than half a bit cannot turn a bit,
+/// nor can an edge it moved.
 pub fn bits_by_longer_level(edges: &[u64], mut level: bool, modulo: u64, bits: u32) -> Option<u16> {
     let mut next = 0;
     let mut out = 0u16;
@@ -100,6 +100,32 @@ pub fn bits_by_longer_level(edges: &[u64], mut level: bool, modulo: u64, bits: u
         out |= ((2 * high > modulo) as u16) << k;
     }
     Some(out)
+}
+
+/// The glitches it takes to explain the edges (as for [`bits_by_longer_level`]) that are more
+/// than a quarter bit from a bit boundary: two such edges less than half a bit apart are one
+/// glitch inside a bit, a lone one an edge a glitch moved. A character at its rate has none
+/// but its glitches'; a faster rate's characters seen on a slower grid leave many, where each
+/// bit would otherwise be whatever level the faster bits inside it held longer.
+pub fn glitches_off_grid(edges: &[u64], modulo: u64) -> u32 {
+    let off = |e: u64| {
+        let into = e % modulo;
+        4 * into.min(modulo - into) > modulo
+    };
+    let mut glitches = 0;
+    let mut i = 0;
+    while i < edges.len() {
+        if off(edges[i]) {
+            glitches += 1;
+            let pair = edges
+                .get(i + 1)
+                .is_some_and(|&next| off(next) && 2 * (next - edges[i]) <= modulo);
+            i += if pair { 2 } else { 1 };
+        } else {
+            i += 1;
+        }
+    }
+    glitches
 }
 
 /// A character the receiver finished, at the middle of its stop bit.
@@ -634,6 +660,18 @@ mod tests {
             bits_by_longer_level(&[2 * m + 8, 3 * m], false, m, 11),
             None
         );
+    }
+    /// A glitch inside a bit is one, an edge a glitch moved is one, and edges off the grid far
+    /// apart are one each.
+    #[test]
+    fn edges_off_the_grid_count_as_the_glitches_that_explain_them() {
+        let m = 16;
+        assert_eq!(glitches_off_grid(&[4 * m, 5 * m, 9 * m], m), 0);
+        assert_eq!(glitches_off_grid(&[2 * m + 6, 2 * m + 12, 4 * m], m), 1);
+        assert_eq!(glitches_off_grid(&[2 * m + 6, 4 * m, 5 * m + 7], m), 2);
+        // A faster rate's edges, half a bit off, each its own.
+        let faster: Vec<u64> = (1..10).map(|k| k * m + m / 2).collect();
+        assert_eq!(glitches_off_grid(&faster, m), 9);
     }
     use crate::timing::DEFAULT_CLOCK_HZ;
     use dp_consts::Baud;

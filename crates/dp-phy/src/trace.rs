@@ -13,7 +13,7 @@ use vcd::{IdCode, TimescaleUnit, Value};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Sample {
     line: bool,
-    filtered: bool,
+    synced: bool,
     rx_active: bool,
     rx_bit: u8,
     measuring: bool,
@@ -46,7 +46,7 @@ impl<W: Write> Tracer<W> {
         vcd.add_module(scope)?;
         let ids = [
             vcd.add_wire(1, "line")?,
-            vcd.add_wire(1, "filtered")?,
+            vcd.add_wire(1, "synced")?,
             vcd.add_wire(1, "rx_active")?,
             vcd.add_wire(4, "rx_bit")?,
             vcd.add_wire(1, "measuring")?,
@@ -76,7 +76,7 @@ impl<W: Write> Tracer<W> {
         };
         let s = Sample {
             line,
-            filtered: p.filtered,
+            synced: p.synced,
             rx_active: p.rx_active,
             rx_bit: p.rx_bit,
             measuring: p.measuring,
@@ -95,7 +95,7 @@ impl<W: Write> Tracer<W> {
         let changed = |f: fn(&Sample) -> u32| old.is_none_or(|o| f(&o) != f(&s));
         let fields: [Field; 10] = [
             (0, 1, |s| s.line as u32),
-            (1, 1, |s| s.filtered as u32),
+            (1, 1, |s| s.synced as u32),
             (2, 1, |s| s.rx_active as u32),
             (3, 4, |s| s.rx_bit as u32),
             (4, 1, |s| s.measuring as u32),

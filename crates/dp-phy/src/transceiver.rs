@@ -108,7 +108,8 @@ pub struct Stats {
 /// Internal signals worth a waveform.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Probe {
-    pub filtered: bool,
+    /// The line in the clock domain, as the search and the receiver see it.
+    pub synced: bool,
     pub rx_active: bool,
     pub rx_bit: u8,
     pub measuring: bool,
@@ -231,7 +232,7 @@ impl Transceiver {
     /// Internal signals, for waveforms.
     pub fn probe(&self) -> Probe {
         Probe {
-            filtered: self.sync_q.out,
+            synced: self.sync_q.out,
             rx_active: self.rx_q.active(),
             rx_bit: self
                 .rx

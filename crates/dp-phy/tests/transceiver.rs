@@ -817,5 +817,5 @@ fn pinned_waveforms() {
     assert_eq!(exchange, PINNED_12M, "exchange at 12M");
 }
 
-const PINNED_LOCK: &str = "94ec42cbb2e3524cccb8e3fec8f8351b11f1fd327fb5c209dddf349fd4963157";
-const PINNED_12M: &str = "b72c519d692ab47f40cd623014248cf0e184680b8663f76defc3ef2cfafb6b22";
+const PINNED_LOCK: &str = "74e774a6df6465630978916378bc5035ee3c3f696e4c07cedf61e0916f773478";
+const PINNED_12M: &str = "886d65b9cf9acb4823a8456cc2e8ed6c793d12b11860d7eb6f5804a677dbe99e";

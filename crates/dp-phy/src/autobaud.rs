@@ -329,6 +329,8 @@ impl AutoBaud {
         } else {
             match (from_start, self.read_from(r, c, c.alt)) {
                 (Ok(a), Ok(b)) if a != b => return Err(Reject::OffGrid),
+                // The first start when both read it: the receiver goes on from the middle of
+                // its stop bit, and takes a next start that came before the decision.
                 (Ok(a), _) => (a, 0),
                 (_, Ok(b)) => (b, c.alt),
                 (Err(e), _) => return Err(e),

@@ -311,9 +311,9 @@ impl Transceiver {
     pub fn tick(&mut self, line: bool) -> TickOut {
         let mut out = TickOut::default();
         let now = self.now;
-        // Idle before this clock's edge: a character's TSYN.
-        let idle_before = self.idle();
         let (sf, sfq) = filter::next(line, SYNC_FILTER_LEN, &self.sync_q);
+        // Idle before a fall, worked out before it counts: a character's TSYN.
+        let idle_before = if sf.fell { self.idle() } else { 0 };
         self.sync_q = sfq;
         if sf.fell || sf.rose {
             self.edges.push(now, sf.rose);

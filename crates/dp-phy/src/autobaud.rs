@@ -38,6 +38,7 @@
 //! telegram arrives without error. Anything that fails a check is dropped and that rate's
 //! channel listens again.
 
+use crate::filter::FilterOut;
 use crate::Tick;
 use dp_consts::{Baud, SD1, SD2, SD3, SD4, TSYN_BITS};
 
@@ -114,9 +115,8 @@ pub struct AutoBaudQ {
     pub pending: [Tick; RATES],
     pub high_since: [Tick; RATES],
     pub high_before: [Tick; RATES],
-    /// The line's last edge, glitch or not, and its level after it.
+    /// The line's last edge, glitch or not.
     pub last_edge: Tick,
-    pub level: bool,
     pub channels: [ChannelQ; RATES],
     /// Some channel is measuring.
     pub measuring: bool,
@@ -129,7 +129,6 @@ pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
     high_since: [0; RATES],
     high_before: [0; RATES],
     last_edge: 0,
-    level: true,
     channels: [CHANNEL_RESET; RATES],
     measuring: false,
     deadline: Tick::MAX,
@@ -190,7 +189,8 @@ impl AutoBaud {
         self.tsyn[baud.index()]
     }
 
-    /// One clock at `now` (`fell`, `rose`: the line changed on it). Returns a detection or a
+    /// One clock at `now` with the line `line` (its level, and whether it fell or rose on it).
+    /// Returns a detection or a
     /// rejection when a decision falls due; with the receiver on a rate (`heard`), only a
     /// detection at another rate: nothing else would change anything then. Updates the
     /// registers in place: the search runs on every clock beside the receiver, and copying its
@@ -199,23 +199,23 @@ impl AutoBaud {
     pub fn clock(
         &self,
         now: Tick,
-        fell: bool,
-        rose: bool,
+        line: FilterOut,
         heard: Option<Baud>,
         q: &mut AutoBaudQ,
     ) -> Option<Result<Detection, Reject>> {
-        if !(fell || rose) && now < q.deadline {
+        let edge = line.fell || line.rose;
+        if !edge && now < q.deadline {
             return None;
         }
-        if fell || rose {
-            self.pass_edge(now, rose, q);
+        if edge {
+            self.pass_edge(now, line.rose, q);
         }
         if now < q.deadline {
             return None;
         }
         // Decisions due, the fastest rate first: a detection goes before any rejection.
         let mut out = None;
-        let level = q.level;
+        let level = line.level;
         for r in (0..RATES).rev() {
             let c = &mut q.channels[r];
             if !c.measuring || now < c.decide_at {
@@ -302,7 +302,6 @@ impl AutoBaud {
             q.pending[r] = if cancels { Tick::MAX } else { now };
         }
         q.last_edge = now;
-        q.level = rose;
         if changed {
             self.update_deadline(q);
         }
@@ -458,7 +457,12 @@ mod tests {
         let mut out = Vec::new();
         for now in 0..t0 + t.clocks_for(13, 1) {
             let l = level_at(now);
-            if let Some(d) = ab.clock(now, prev && !l, !prev && l, None, &mut q) {
+            let line = FilterOut {
+                level: l,
+                fell: prev && !l,
+                rose: !prev && l,
+            };
+            if let Some(d) = ab.clock(now, line, None, &mut q) {
                 out.push((now, d));
             }
             prev = l;

@@ -60,16 +60,8 @@ impl FaultInjector {
 
     /// `count` glitches of 1..=`max_len` clocks spread over `[from, to)`, from `seed`.
     pub fn glitches(&mut self, seed: u64, from: Tick, to: Tick, count: usize, max_len: Tick) {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        for _ in 0..count {
-            let start = rng.gen_range(from..to);
-            let len = rng.gen_range(1..=max_len.max(1));
-            self.add(FaultWindow {
-                start,
-                len,
-                fault: LineFault::Invert,
-            });
-        }
+        // Apart by nothing: only an overlapping one is dropped, as `add` drops it.
+        self.isolated_glitches(seed, from, to, count, max_len, 0);
     }
 
     /// As [`glitches`](Self::glitches), but each at least `apart` clocks from every other (one
@@ -88,10 +80,11 @@ impl FaultInjector {
         for _ in 0..count {
             let start = rng.gen_range(from..to);
             let len = rng.gen_range(1..=max_len.max(1));
-            let near = self
-                .windows
-                .iter()
-                .any(|w| start < w.start + w.len + apart && w.start < start + len + apart);
+            let near = apart > 0
+                && self
+                    .windows
+                    .iter()
+                    .any(|w| start < w.start + w.len + apart && w.start < start + len + apart);
             if !near {
                 self.add(FaultWindow {
                     start,

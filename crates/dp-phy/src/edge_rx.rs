@@ -351,12 +351,14 @@ impl EdgeRx {
     /// taken as if they came now. The next character may have started before the decision.
     pub fn catch_up(&self, start: Tick, end: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
         q.ready_at = start + self.stop_middle;
-        let kept = edges.seen().min(EDGES_KEPT as u64);
-        for k in edges.seen() - kept..edges.seen() {
+        // The edges since then, found from the newest back: a few at most.
+        let mut from = edges.seen();
+        while from > 0 && edges.get(from - 1).is_some_and(|(at, _)| at >= q.ready_at) {
+            from -= 1;
+        }
+        for k in from..edges.seen() {
             if let Some((at, false)) = edges.get(k) {
-                if at >= q.ready_at {
-                    self.on_fall(k, at.saturating_sub(end), edges, q);
-                }
+                self.on_fall(k, at.saturating_sub(end), edges, q);
             }
         }
     }

@@ -325,8 +325,7 @@ impl Transceiver {
         // The search's own early exit, here: the rate heard is worth working out on its events
         // only (the search runs on every clock).
         let det = if sf.fell || sf.rose || now >= self.search_q.deadline {
-            self.search
-                .clock(now, sf.fell, sf.rose, self.heard(), &mut self.search_q)
+            self.search.clock(now, sf, self.heard(), &mut self.search_q)
         } else {
             None
         };

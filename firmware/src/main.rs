@@ -343,7 +343,7 @@ macro_rules! adapter_app {
                 // A step of the cycle is counted from here: on a board it follows the look at
                 // the empty queue, with no frame to receive or decode.
                 #[cfg(feature = "sim")]
-                if let ToAdapter::Sim(dp_link::sim::SimToAdapter::Continue) = *message {
+                if let ToAdapter::Sim(dp_link::sim::SimToAdapter::Continue(_)) = *message {
                     start = board::timestamp();
                 }
                 if let ToAdapter::Boot { switch, nv, .. } = *message {
@@ -354,39 +354,58 @@ macro_rules! adapter_app {
                     return;
                 };
                 let before = (adapter.slave().state(), adapter.slave().address());
+                // Cells: the steps of a grant read them between the writes the closure counts.
                 #[cfg(feature = "sim")]
-                let (mut writes, mut decision) = (0u32, (0u32, 0u32));
+                let (start, writes) = (core::cell::Cell::new(start), core::cell::Cell::new(0u32));
+                #[cfg(feature = "sim")]
+                let mut decision = (0u32, 0u32);
                 let mut out = |out: Out| match out {
                     Out::Write(write) => {
                         send(tx, frame, &write);
                         #[cfg(feature = "sim")]
-                        {
-                            writes += 1;
-                        }
+                        writes.set(writes.get() + 1);
                     }
                     Out::DecisionWritten => {
                         #[cfg(feature = "sim")]
                         {
-                            decision = (board::cycles_since(start), writes);
+                            decision = (board::cycles_since(start.get()), writes.get());
                         }
                     }
                 };
+                // The steps of a grant that ran before the last one, and their instructions.
+                #[cfg(feature = "sim")]
+                let mut earlier = (0u8, 0u32);
                 match message {
                     #[cfg(feature = "sim")]
-                    ToAdapter::Sim(dp_link::sim::SimToAdapter::Continue) => {
+                    ToAdapter::Sim(dp_link::sim::SimToAdapter::Continue(grant)) => loop {
+                        let drive_before = adapter::Background::drive_tx_bytes(adapter.app());
                         adapter.cycle_step(&mut out);
-                    }
+                        // What the step queued for the drive goes out now, in one interrupt.
+                        crate::drive_uart::kick();
+                        let used = earlier.1.saturating_add(board::cycles_since(start.get()));
+                        let wrote = writes.get() > 0
+                            || adapter::Background::drive_tx_bytes(adapter.app()) != drive_before;
+                        // A u8 is plenty: a cycle has fewer steps, and a grant ends with it.
+                        if !adapter.cycle_pending() || !grant.allows_another(used, wrote) || earlier.0 == u8::MAX {
+                            break;
+                        }
+                        // This step's counts go with the earlier ones; the next is counted
+                        // from its own start, as on a board after its look at the queue.
+                        earlier = (earlier.0 + 1, used);
+                        start.set(board::timestamp());
+                    },
                     _ => {
                         adapter.decide(message, &mut out);
+                        crate::drive_uart::kick();
                     }
                 }
-                // What the step queued for the drive goes out now, in one interrupt.
-                crate::drive_uart::kick();
                 #[cfg(feature = "sim")]
                 send(tx, frame, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Done {
+                    earlier_steps: earlier.0,
+                    earlier_instructions: earlier.1,
                     decision_instructions: decision.0,
                     decision_writes: decision.1,
-                    instructions: board::cycles_since(start),
+                    instructions: board::cycles_since(start.get()),
                     drive_tx_bytes: adapter::Background::drive_tx_bytes(adapter.app()),
                     cycle_pending: adapter.cycle_pending(),
                 }));

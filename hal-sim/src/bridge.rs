@@ -13,7 +13,9 @@
 //!  MCU: interrupt entry, then the firmware handles events one at a time (its counted
 //!       instructions at the board's clock); drive answers interrupt it too. The drive
 //!       application's cycle runs a step at a time when no event waits (`Continue`), so an
-//!       event waits for one step, not a whole cycle
+//!       event waits for one step, not a whole cycle. One `Continue` grants the firmware the
+//!       steps that start before anything can reach the MCU (conservative lookahead): it runs
+//!       them back to back and reports them in one `Done`, one host round trip for them all
 //!                 ▼
 //!  link from MCU: each write leaves when the firmware sent it, takes its bytes x byte time,
 //!                 and lands in the responder's buffers (or the LEDs, storage, timer)
@@ -23,7 +25,7 @@
 
 use crate::firmware::{Firmware, Handled, Write};
 use board::Board;
-use dp_link::sim::SimToAdapter;
+use dp_link::sim::{Grant, SimToAdapter};
 use dp_link::{NvRecord, Status, ToAdapter, MAX_FRAME_LEN};
 use dp_phy::responder::{Input, Responder};
 use dp_phy::Tick;
@@ -81,6 +83,11 @@ pub struct LinkFigures {
     pub data_exchanges: u64,
     pub watchdog_expiries: u64,
     pub set_prms: u64,
+    /// Messages the firmware handled (each one host round trip under QEMU), and the steps of
+    /// the drive application's cycle it ran: more than one a `Continue` under a grant.
+    pub round_trips: u64,
+    pub continues: u64,
+    pub cycle_steps: u64,
 }
 
 impl LinkFigures {
@@ -116,11 +123,22 @@ pub struct Bridge<F: Firmware> {
     cycle_pending: bool,
     /// The wake-up time a Timer event was sent for.
     timer_sent_for: Option<u64>,
+    /// When the last status landed: a wake-up it asks for at an earlier time is due then
+    /// (the transceiver cannot send an event before it knows of it).
+    status_landed_ns: u64,
     /// Wall-clock mode (`qemu-run` on a port): the firmware in QEMU cannot run ahead of the
     /// wall clock, so the MCU starts nothing before the time of the poll that runs it.
     pub realtime: bool,
     /// The time of the current poll, in wall-clock mode.
     floor_ns: u64,
+    /// The bus's time at the current poll: a telegram not yet handed over ends no earlier.
+    poll_ns: u64,
+    /// The last step of a grant that ran more than one: it starts when the MCU is next free
+    /// (after the earlier steps), and is placed in time then, as if it ran then.
+    granted_last_step: Option<Handled>,
+    /// The shortest timer or watchdog event on the link, and the shortest telegram event.
+    min_event_len: usize,
+    min_telegram_event_len: usize,
 }
 
 impl<F: Firmware> Bridge<F> {
@@ -144,8 +162,20 @@ impl<F: Firmware> Bridge<F> {
             mcu_free_ns: 0,
             cycle_pending: false,
             timer_sent_for: None,
+            status_landed_ns: 0,
             realtime: false,
             floor_ns: 0,
+            poll_ns: 0,
+            granted_last_step: None,
+            min_event_len: encoded_len(&Event::Timer { seq: 0 }, 0),
+            min_telegram_event_len: encoded_len(
+                &Event::Telegram {
+                    seq: 0,
+                    baud: 0,
+                    bytes: vec![0; SHORTEST_REQUEST_LEN],
+                },
+                0,
+            ),
         }
     }
 
@@ -182,6 +212,7 @@ impl<F: Firmware> Bridge<F> {
         self.from_mcu_free_ns = now_ns;
         self.mcu_free_ns = now_ns;
         self.cycle_pending = false;
+        self.granted_last_step = None;
         self.timer_sent_for = None;
         self.drive.adapter_restarted();
         self.boot(now_ns);
@@ -274,7 +305,7 @@ impl<F: Firmware> Bridge<F> {
 
     fn timer_due(&self) -> Option<u64> {
         let at = self.status.wake_at_us?;
-        (self.timer_sent_for != Some(at)).then_some(at * 1000)
+        (self.timer_sent_for != Some(at)).then_some((at * 1000).max(self.status_landed_ns))
     }
 
     /// Everything due at `now_ns`, in time order.
@@ -290,6 +321,7 @@ impl<F: Firmware> Bridge<F> {
         if self.realtime {
             self.floor_ns = self.floor_ns.max(now_ns);
         }
+        self.poll_ns = now_ns;
         match self.next_ns().filter(|t| *t <= now_ns) {
             Some(t) => self.step_at(t).map(|()| true),
             None => Ok(false),
@@ -326,6 +358,15 @@ impl<F: Firmware> Bridge<F> {
             .drive
             .next_delivery_us()
             .map(|us| (us * 1000).max(self.mcu_free_ns));
+        let preempts = link_ready.into_iter().chain(drive_ready).any(|r| r <= t);
+        if preempts && self.granted_last_step.is_some() {
+            // The grant let the firmware run a step that an event now ready would have held
+            // back: the lookahead below is wrong, and the run with it.
+            return Err(io::Error::other(format!(
+                "the firmware ran a step of its cycle past an event ready at {t} ns: the \
+                 lookahead granted too much"
+            )));
+        }
         match (link_ready, drive_ready) {
             (Some(l), d) if l <= t && d.is_none_or(|d| l <= d) => {
                 let e = self.to_mcu.pop_front().expect("checked");
@@ -339,13 +380,91 @@ impl<F: Firmware> Bridge<F> {
         }
     }
 
-    /// No event waits: the MCU runs the next step of the drive application's cycle.
+    /// No event waits: the MCU runs the next step of the drive application's cycle, and those
+    /// after it that start before anything can reach it, in one exchange.
     fn continue_cycle(&mut self, start_ns: u64) -> io::Result<()> {
-        let handled = self
-            .firmware
-            .exchange(&ToAdapter::Sim(SimToAdapter::Continue))?;
-        self.take(start_ns, &handled)?;
+        if let Some(last) = self.granted_last_step.take() {
+            self.take(start_ns, &last)?;
+            return Ok(());
+        }
+        let horizon_ns = self.horizon_ns();
+        let grant = if self.realtime {
+            Grant::ONE_STEP
+        } else {
+            Grant {
+                budget_instructions: self.board.instructions_taking_ns(horizon_ns - start_ns),
+            }
+        };
+        let handled = self.exchange(&ToAdapter::Sim(SimToAdapter::Continue(grant)))?;
+        self.figures.continues += 1;
+        self.figures.cycle_steps += u64::from(handled.earlier_steps) + 1;
+        if handled.earlier_steps == 0 {
+            self.take(start_ns, &handled)?;
+            return Ok(());
+        }
+        // The earlier steps wrote nothing: they only keep the MCU busy. The last one is placed
+        // when the MCU is free after them, as a step run alone would be.
+        let last_start_ns = start_ns
+            + self
+                .board
+                .instructions_ns(u64::from(handled.earlier_instructions));
+        if last_start_ns >= horizon_ns {
+            return Err(io::Error::other(format!(
+                "the firmware ran a step at {last_start_ns} ns, past its grant to {horizon_ns} ns"
+            )));
+        }
+        self.mcu_free_ns = last_start_ns;
+        self.granted_last_step = Some(handled);
         Ok(())
+    }
+
+    /// The earliest time anything can be ready for the MCU that would hold back a step of the
+    /// cycle (an event on the link, a drive answer), from what is known at this poll. An event
+    /// not yet on the link is created no earlier than: a telegram, this poll's bus time (one
+    /// that is still arriving ends later) or, where it would replace outputs not yet sent,
+    /// their start; a timer, its time; the watchdog, the responder's deadline; and either of
+    /// them, when a status or registers write not yet landed moves that time. It then takes at least the shortest
+    /// such event's bytes on the link, and the interrupt's entry.
+    fn horizon_ns(&self) -> u64 {
+        let entry = self.board.irq_entry_ns();
+        let queue_free = self.to_mcu_free_ns;
+        let event = |created: u64, len: usize| {
+            created.max(queue_free) + self.event_transfer_ns(len) + entry
+        };
+        let replaceable = self
+            .to_mcu
+            .back()
+            .filter(|e| e.outputs_only && e.start_ns > self.poll_ns);
+        let telegram = match replaceable {
+            Some(e) => e.start_ns + self.event_transfer_ns(self.min_telegram_event_len) + entry,
+            None => event(self.poll_ns, self.min_telegram_event_len),
+        };
+        [
+            self.to_mcu.front().map(|e| e.arrived_ns + entry),
+            self.drive.next_delivery_us().map(|us| us * 1000),
+            Some(telegram),
+            self.timer_due().map(|at| event(at, self.min_event_len)),
+            self.responder.deadline().map(|t| {
+                let at = (t * 1000).div_ceil(u64::from(self.clock_hz / 1_000_000));
+                event(at, self.min_event_len)
+            }),
+            // Of the writes, only the status (its wake-up) and the registers (the watchdog)
+            // move the time of an event.
+            self.from_mcu
+                .iter()
+                .find(|(_, w)| matches!(w, Write::Status(_) | Write::Regs(_)))
+                .map(|(at, _)| event(*at, self.min_event_len)),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
+        .expect("a telegram can always come")
+    }
+
+    /// One message to the firmware, counted.
+    fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled> {
+        self.figures.round_trips += 1;
+        self.firmware.exchange(message)
     }
 
     /// The MCU handles `e` from `start_ns`.
@@ -356,26 +475,22 @@ impl<F: Firmware> Bridge<F> {
         let latency = start_ns - e.at_ns;
         self.figures.worst_event_latency_ns = self.figures.worst_event_latency_ns.max(latency);
         let handled = match &e.event {
-            Event::Boot { seq, switch, nv } => self.firmware.exchange(&ToAdapter::Boot {
+            Event::Boot { seq, switch, nv } => self.exchange(&ToAdapter::Boot {
                 seq: *seq,
                 now_us,
                 switch: *switch,
                 nv: *nv,
             })?,
-            Event::Telegram { seq, baud, bytes } => {
-                self.firmware.exchange(&ToAdapter::Telegram {
-                    seq: *seq,
-                    now_us,
-                    baud: *baud,
-                    bytes,
-                })?
+            Event::Telegram { seq, baud, bytes } => self.exchange(&ToAdapter::Telegram {
+                seq: *seq,
+                now_us,
+                baud: *baud,
+                bytes,
+            })?,
+            Event::Watchdog { seq } => {
+                self.exchange(&ToAdapter::WatchdogExpired { seq: *seq, now_us })?
             }
-            Event::Watchdog { seq } => self
-                .firmware
-                .exchange(&ToAdapter::WatchdogExpired { seq: *seq, now_us })?,
-            Event::Timer { seq } => self
-                .firmware
-                .exchange(&ToAdapter::Timer { seq: *seq, now_us })?,
+            Event::Timer { seq } => self.exchange(&ToAdapter::Timer { seq: *seq, now_us })?,
         };
         let decided_ns = self.take(start_ns, &handled)?;
         if e.outputs_only {
@@ -396,12 +511,10 @@ impl<F: Firmware> Bridge<F> {
         // request went out, so the firmware times its drive link on one consistent clock even
         // when the host is late to hand the answer over.
         let now_us = at_us;
-        let handled = self
-            .firmware
-            .exchange(&ToAdapter::Sim(SimToAdapter::DriveBytes {
-                now_us,
-                drive_rx_bytes: self.drive.delivered,
-            }))?;
+        let handled = self.exchange(&ToAdapter::Sim(SimToAdapter::DriveBytes {
+            now_us,
+            drive_rx_bytes: self.drive.delivered,
+        }))?;
         self.take(start_ns, &handled)?;
         Ok(())
     }
@@ -456,6 +569,7 @@ impl<F: Firmware> Bridge<F> {
             write: &write.as_message(),
         });
         if let Write::Status(status) = write {
+            self.status_landed_ns = at_ns;
             self.apply_status(*status);
         }
         Ok(())
@@ -509,6 +623,10 @@ impl<F: Firmware> Bridge<F> {
     }
 }
 
+/// The shortest request the responder hands over: an SD1 telegram (SD1, DA, SA, FC, FCS, ED);
+/// SD2 and SD3 are longer, and an SC or a token is never handed over.
+const SHORTEST_REQUEST_LEN: usize = 6;
+
 /// The bytes `event` takes on the link.
 fn encoded_len(event: &Event, at_ns: u64) -> usize {
     let now_us = at_ns / 1000;
@@ -552,7 +670,7 @@ mod tests {
                 decision_instructions: self.decision,
                 instructions: self.total,
                 drive_tx_bytes: 0,
-                cycle_pending: false,
+                ..Handled::default()
             })
         }
         fn restart(&mut self) -> io::Result<()> {
@@ -609,7 +727,7 @@ mod tests {
             decision_instructions: 100,
             instructions: 200,
             drive_tx_bytes: 0,
-            cycle_pending: false,
+            ..Handled::default()
         };
         let at = written + 1_000_000;
         bridge.take(at, &handled).unwrap();

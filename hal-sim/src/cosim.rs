@@ -267,6 +267,12 @@ pub struct Figures {
     pub collisions: u64,
     /// The firmware's stack at its deepest, where it has one to measure (under QEMU).
     pub stack_peak: Option<crate::firmware::StackPeak>,
+    /// The bus time simulated, and the messages the firmware handled in it (a host round trip
+    /// each under QEMU) with the steps of its drive application's cycle among them.
+    pub simulated_us: u64,
+    pub round_trips: u64,
+    pub continues: u64,
+    pub cycle_steps: u64,
 }
 
 /// The whole bus and the board around the firmware.
@@ -384,6 +390,10 @@ impl<F: Firmware> CoSim<F> {
             .collect();
         cycles.sort_unstable();
         f.median_dp_cycle_ns = cycles.get(cycles.len() / 2).copied();
+        f.simulated_us = self.now_us();
+        f.round_trips = self.bridge.figures.round_trips;
+        f.continues = self.bridge.figures.continues;
+        f.cycle_steps = self.bridge.figures.cycle_steps;
         f
     }
 

@@ -92,6 +92,11 @@ pub struct Handled {
     /// Steps of the drive application's cycle remain: the MCU runs the next one
     /// ([`SimToAdapter::Continue`]) when no event waits.
     pub cycle_pending: bool,
+    /// After a [`SimToAdapter::Continue`]: the steps that ran before the last one under its
+    /// grant, and their instructions together (they wrote nothing); the fields above are the
+    /// last step's.
+    pub earlier_steps: u32,
+    pub earlier_instructions: u32,
 }
 
 /// Something that handles link events.
@@ -188,20 +193,33 @@ impl Firmware for InProcess {
             .as_mut()
             .ok_or_else(|| io::Error::other("message before Boot"))?;
         let mut handled = Handled::default();
+        // Cells: a grant's steps look at the writes between steps, while the closure adds them.
+        let writes = std::cell::RefCell::new(Vec::new());
+        let decision_writes = std::cell::Cell::new(0);
         let mut out = |out: adapter::Out| match out {
-            adapter::Out::Write(write) => handled
-                .writes
+            adapter::Out::Write(write) => writes
+                .borrow_mut()
                 .extend(Write::from_message(&write).map(|w| (0, w))),
-            adapter::Out::DecisionWritten => handled.decision_writes = handled.writes.len(),
+            adapter::Out::DecisionWritten => decision_writes.set(writes.borrow().len()),
         };
         match message {
-            ToAdapter::Sim(SimToAdapter::Continue) => {
+            // As the firmware runs a grant's steps, each one 0 instructions.
+            ToAdapter::Sim(SimToAdapter::Continue(grant)) => loop {
+                let drive_before = adapter::Background::drive_tx_bytes(adapter.app());
                 adapter.cycle_step(&mut out);
-            }
+                let wrote = !writes.borrow().is_empty()
+                    || adapter::Background::drive_tx_bytes(adapter.app()) != drive_before;
+                if !adapter.cycle_pending() || !grant.allows_another(0, wrote) {
+                    break;
+                }
+                handled.earlier_steps += 1;
+            },
             _ => {
                 adapter.decide(message, &mut out);
             }
         }
+        handled.writes = writes.into_inner();
+        handled.decision_writes = decision_writes.get();
         handled.cycle_pending = adapter.cycle_pending();
         handled.drive_tx_bytes = adapter::Background::drive_tx_bytes(adapter.app());
         Ok(handled)
@@ -475,6 +493,8 @@ impl Firmware for Qemu {
                     return Err(io::Error::other("Ready again: the firmware restarted"))
                 }
                 Some(FromAdapter::Sim(SimFromAdapter::Done {
+                    earlier_steps,
+                    earlier_instructions,
                     decision_instructions,
                     decision_writes,
                     instructions,
@@ -499,6 +519,8 @@ impl Firmware for Qemu {
                     handled.instructions = instructions;
                     handled.drive_tx_bytes = drive_tx_bytes;
                     handled.cycle_pending = cycle_pending;
+                    handled.earlier_steps = u32::from(earlier_steps);
+                    handled.earlier_instructions = earlier_instructions;
                     return Ok(handled);
                 }
                 Some(other) => unmarked.extend(Write::from_message(&other)),

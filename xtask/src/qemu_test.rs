@@ -211,8 +211,12 @@ pub fn run(args: &[String]) -> Result<()> {
             }
             Err(e) => (false, vec![format!("error: {e:#}")], None),
         };
+        let pace = outcome
+            .as_ref()
+            .map(|o| round_trip_pace(&o.figures))
+            .unwrap_or_default();
         println!(
-            "[{:>2}/{}] {:<32} {} ({:.1} s)",
+            "[{:>2}/{}] {:<32} {} ({:.1} s{pace})",
             i + 1,
             runs.len(),
             row,
@@ -298,6 +302,18 @@ fn smoke(
         ),
         fits,
     ))
+}
+
+/// Where a scenario's wall time goes: the host round trips to the firmware per simulated second
+/// (each one a message through QEMU's UART both ways), and the cycle steps each `Continue` ran.
+fn round_trip_pace(f: &hal_sim::cosim::Figures) -> String {
+    let simulated_s = f.simulated_us as f64 / 1e6;
+    format!(
+        ", {:.1} simulated s, {:.0} round trips per simulated s, {:.1} cycle steps per Continue",
+        simulated_s,
+        f.round_trips as f64 / simulated_s.max(1e-6),
+        f.cycle_steps as f64 / (f.continues as f64).max(1.0),
+    )
 }
 
 /// A scenario run on a board: its table row.

@@ -93,6 +93,22 @@ impl Board {
         (cycles * 1_000_000_000).div_ceil(self.mcu_clock_hz as u64)
     }
 
+    /// The fewest counted instructions that take at least `ns`: every count below it ends
+    /// before `ns` (a lookahead of `ns` in instructions, as hal-sim grants it to the firmware).
+    pub fn instructions_taking_ns(&self, ns: u64) -> u32 {
+        // An estimate from the inverse of `instructions_ns`, then exact on its rounding.
+        let per_instruction_ns =
+            self.cycles_per_instruction_pct as f64 * 1e7 / self.mcu_clock_hz as f64;
+        let mut n = (ns as f64 / per_instruction_ns) as u64;
+        while n > 0 && self.instructions_ns(n - 1) >= ns {
+            n -= 1;
+        }
+        while self.instructions_ns(n) < ns {
+            n += 1;
+        }
+        u32::try_from(n).unwrap_or(u32::MAX)
+    }
+
     /// Nanoseconds from an interrupt request to its handler.
     pub const fn irq_entry_ns(&self) -> u64 {
         self.instructions_ns(0)
@@ -222,5 +238,24 @@ mod tests {
         // 72 instructions at 150 % = 108 cycles = 1.5 us at 72 MHz.
         assert_eq!(STM32F103.instructions_ns(72), 1_500);
         assert_eq!(STM32F103.irq_entry_ns(), 167);
+    }
+
+    #[test]
+    fn the_instructions_taking_a_time_are_the_first_count_that_reaches_it() {
+        for ns in [0, 1, 20, 21, 1_000, 51_389, 10_000_000] {
+            let n = STM32F103.instructions_taking_ns(ns);
+            assert!(
+                STM32F103.instructions_ns(u64::from(n)) >= ns,
+                "{ns} ns: {n}"
+            );
+            if n > 0 {
+                assert!(
+                    STM32F103.instructions_ns(u64::from(n) - 1) < ns,
+                    "{ns} ns: {n}"
+                );
+            }
+        }
+        // 1.5 cycles an instruction at 72 MHz: 48 instructions a microsecond.
+        assert_eq!(STM32F103.instructions_taking_ns(1_000), 48);
     }
 }

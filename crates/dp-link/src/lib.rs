@@ -98,7 +98,7 @@ impl ToAdapter<'_> {
             #[cfg(feature = "sim")]
             ToAdapter::Sim(sim::SimToAdapter::DriveBytes { now_us, .. }) => now_us,
             #[cfg(feature = "sim")]
-            ToAdapter::Sim(sim::SimToAdapter::Continue | sim::SimToAdapter::StackPeak) => 0,
+            ToAdapter::Sim(sim::SimToAdapter::Continue(_) | sim::SimToAdapter::StackPeak) => 0,
         }
     }
 }
@@ -181,11 +181,44 @@ pub mod sim {
         DriveBytes { now_us: u64, drive_rx_bytes: u32 },
         /// No frame is waiting: run the next step of the drive application's cycle. On a
         /// board the firmware decides this itself (its link queue is empty); under simulation
-        /// only hal-sim knows whether an event reached the MCU during the last step.
-        Continue,
+        /// only hal-sim knows whether an event reached the MCU during the last step. It knows
+        /// when the next one can at the earliest ([`Grant`]), so the firmware may run more
+        /// steps back to back and report them in one `Done`: one host round trip for them all.
+        Continue(Grant),
         /// How deep has the stack been since power-up? Answered with
         /// [`SimFromAdapter::StackPeak`] alone (no `Done`): a measurement, not an event.
         StackPeak,
+    }
+
+    /// How far the firmware may run the drive application's cycle before it reports:
+    /// conservative lookahead, as in parallel discrete-event simulation. No event can reach
+    /// the MCU before `budget_instructions` counted instructions have passed (at the board's
+    /// clock, from the first step's start), so a step that starts within them would have
+    /// started on the board too.
+    ///
+    /// The firmware runs the first step; then the next one while ([`Grant::allows_another`])
+    /// the steps before have used fewer counted instructions than the budget, the last one
+    /// wrote nothing to the transceiver and nothing to the drive (whose answer or effect
+    /// hal-sim must place in time before anything else runs), and a step remains. Every byte
+    /// of it costs a QEMU main-loop turn on the way in, so it is only the budget.
+    #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+    #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+    pub struct Grant {
+        pub budget_instructions: u32,
+    }
+
+    impl Grant {
+        /// One step and no more (a real-time run, where the MCU cannot run ahead of the wall
+        /// clock).
+        pub const ONE_STEP: Grant = Grant {
+            budget_instructions: 0,
+        };
+
+        /// Whether another step may start after steps that used `used_instructions`, the last
+        /// of which `wrote` to the transceiver or the drive.
+        pub fn allows_another(&self, used_instructions: u32, wrote: bool) -> bool {
+            !wrote && used_instructions < self.budget_instructions
+        }
     }
 
     #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
@@ -196,7 +229,13 @@ pub mod sim {
         /// `drive_tx_bytes` bytes have gone to the drive UART since power-up; `cycle_pending`:
         /// steps of the drive application's cycle remain ([`SimToAdapter::Continue`]). One
         /// mark at the end, so that the simulation's own messages cost the counts nothing.
+        ///
+        /// After a [`SimToAdapter::Continue`], `earlier_steps` steps ran before the last one,
+        /// in `earlier_instructions` together, with no write and no drive byte; the rest of
+        /// the fields are the last step's, counted from its own start.
         Done {
+            earlier_steps: u8,
+            earlier_instructions: u32,
             decision_instructions: u32,
             decision_writes: u32,
             instructions: u32,
@@ -453,7 +492,9 @@ mod tests {
                 now_us: 1,
                 drive_rx_bytes: u32::MAX,
             }),
-            ToAdapter::Sim(sim::SimToAdapter::Continue),
+            ToAdapter::Sim(sim::SimToAdapter::Continue(sim::Grant {
+                budget_instructions: u32::MAX,
+            })),
         ];
         let mut stream = Vec::new();
         for m in &messages {
@@ -516,6 +557,8 @@ mod tests {
             },
             FromAdapter::Status(status()),
             FromAdapter::Sim(sim::SimFromAdapter::Done {
+                earlier_steps: u8::MAX,
+                earlier_instructions: u32::MAX,
                 decision_instructions: u32::MAX,
                 decision_writes: u32::MAX,
                 instructions: u32::MAX,
@@ -546,6 +589,23 @@ mod tests {
             [format!("{:?}", ToAdapter::Timer { seq: 5, now_us: 6 })]
         );
         assert_eq!(dropped, 1);
+    }
+
+    #[test]
+    fn a_grant_allows_a_step_only_within_its_budget_after_a_quiet_one() {
+        let grant = sim::Grant {
+            budget_instructions: 1000,
+        };
+        assert!(grant.allows_another(999, false));
+        assert!(
+            !grant.allows_another(1000, false),
+            "the budget is a strict bound"
+        );
+        assert!(
+            !grant.allows_another(10, true),
+            "a step that wrote ends the run"
+        );
+        assert!(!sim::Grant::ONE_STEP.allows_another(0, false));
     }
 
     proptest! {

@@ -684,6 +684,103 @@ mod tests {
         }
     }
 
+    /// A firmware whose cycle always has steps left: it keeps the grants it is given, and
+    /// reports `earlier` steps of `step` instructions each before the last.
+    struct Cycling {
+        grants: Vec<Grant>,
+        earlier: u32,
+        step: u32,
+    }
+
+    impl Firmware for Cycling {
+        fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled> {
+            let earlier_steps = match *message {
+                ToAdapter::Sim(SimToAdapter::Continue(grant)) => {
+                    self.grants.push(grant);
+                    self.earlier
+                }
+                _ => 0,
+            };
+            Ok(Handled {
+                instructions: self.step,
+                cycle_pending: true,
+                earlier_steps,
+                earlier_instructions: earlier_steps * self.step,
+                ..Handled::default()
+            })
+        }
+        fn restart(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+        fn drive_send(&mut self, _: &[u8]) -> io::Result<()> {
+            Ok(())
+        }
+        fn drive_receive(&mut self, _: usize) -> io::Result<Vec<u8>> {
+            Ok(Vec::new())
+        }
+    }
+
+    /// A bridge whose MCU is free at 1 ms with steps of its cycle left and nothing on its way.
+    fn cycling(earlier: u32, step: u32) -> Bridge<Cycling> {
+        let firmware = Cycling {
+            grants: Vec::new(),
+            earlier,
+            step,
+        };
+        let mut bridge = Bridge::new(firmware, 48_000_000, 5, None);
+        bridge.mcu_free_ns = 1_000_000;
+        bridge.to_mcu_free_ns = 1_000_000;
+        bridge.cycle_pending = true;
+        bridge
+    }
+
+    #[test]
+    fn a_grant_reaches_as_far_as_the_shortest_telegram_event_can_come() {
+        let mut bridge = cycling(0, 100);
+        let board = bridge.board;
+        bridge.poll(1_000_000).unwrap();
+        // Nothing is pending: the next event is a telegram ending now at the earliest, an SD1
+        // of six bytes whose event is 11 bytes of message, COBS's two and the idle character.
+        let horizon_ns = board.link.transfer_ns(14) + board.irq_entry_ns();
+        let budget = board.instructions_taking_ns(horizon_ns);
+        assert_eq!(
+            bridge.firmware.grants,
+            [Grant {
+                budget_instructions: budget
+            }]
+        );
+        // A write of the status on its way shortens it: the wake-up it may ask for comes
+        // after it lands, a timer event's 5 bytes and the idle character later.
+        let landing = bridge.mcu_free_ns + 2_000;
+        bridge
+            .from_mcu
+            .push_back((landing, Write::Status(Status::POWER_ON)));
+        let start = bridge.mcu_free_ns;
+        bridge.poll(start).unwrap();
+        let horizon_ns = landing + board.link.transfer_ns(6) + board.irq_entry_ns();
+        assert_eq!(
+            bridge.firmware.grants[1].budget_instructions,
+            board.instructions_taking_ns(horizon_ns - start)
+        );
+    }
+
+    #[test]
+    fn the_last_step_of_a_grant_waits_for_the_mcu_and_a_step_past_the_grant_fails_the_run() {
+        let mut bridge = cycling(3, 100);
+        let board = bridge.board;
+        bridge.poll(1_000_000).unwrap();
+        // Three steps ran; the fourth is placed after them and taken when the MCU is free.
+        assert_eq!(bridge.mcu_free_ns, 1_000_000 + board.instructions_ns(300));
+        assert!(bridge.granted_last_step.is_some());
+        bridge.poll(bridge.mcu_free_ns).unwrap();
+        assert!(bridge.granted_last_step.is_none());
+        assert_eq!(bridge.figures.cycle_steps, 4);
+        // A firmware that ran past its grant is caught.
+        let mut bridge = cycling(100, 1_000);
+        let err = bridge.poll(1_000_000).unwrap_err();
+        assert!(err.to_string().contains("past its grant"), "{err}");
+    }
+
     #[test]
     fn the_board_charges_the_idle_character_and_a_write_waits_for_the_one_before() {
         let firmware = Fixed {

@@ -654,24 +654,12 @@ fn encoded_len(event: &Event, at_ns: u64) -> usize {
 mod tests {
     use super::*;
 
-    /// A firmware that handles every event alike: `decision` instructions, then one write of
-    /// the given inputs (the decision's), then `total` instructions in all.
-    struct Fixed {
-        decision: u32,
-        total: u32,
-        inputs: Vec<u8>,
-    }
+    /// A firmware that answers every message by `script`, with no drive bytes.
+    struct Scripted<S>(S);
 
-    impl Firmware for Fixed {
-        fn exchange(&mut self, _: &ToAdapter) -> io::Result<Handled> {
-            Ok(Handled {
-                writes: vec![(self.decision, Write::Inputs(self.inputs.clone()))],
-                decision_writes: 1,
-                decision_instructions: self.decision,
-                instructions: self.total,
-                drive_tx_bytes: 0,
-                ..Handled::default()
-            })
+    impl<S: FnMut(&ToAdapter) -> Handled> Firmware for Scripted<S> {
+        fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled> {
+            Ok((self.0)(message))
         }
         fn restart(&mut self) -> io::Result<()> {
             Ok(())
@@ -684,59 +672,65 @@ mod tests {
         }
     }
 
-    /// A firmware whose cycle always has steps left: it keeps the grants it is given, and
-    /// reports `earlier` steps of `step` instructions each before the last.
-    struct Cycling {
-        grants: Vec<Grant>,
-        earlier: u32,
-        step: u32,
+    /// Handles every event alike: `decision` instructions, then one write of `inputs` (the
+    /// decision's), then `total` instructions in all.
+    fn fixed(decision: u32, total: u32, inputs: Vec<u8>) -> impl Firmware {
+        Scripted(move |_: &ToAdapter| Handled {
+            writes: vec![(decision, Write::Inputs(inputs.clone()))],
+            decision_writes: 1,
+            decision_instructions: decision,
+            instructions: total,
+            drive_tx_bytes: 0,
+            ..Handled::default()
+        })
     }
 
-    impl Firmware for Cycling {
-        fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled> {
+    /// A cycle that always has steps left: each `Continue`'s grant goes to `grants`, and
+    /// `earlier` steps of `step` instructions each run before the last.
+    fn cycling(
+        grants: std::rc::Rc<std::cell::RefCell<Vec<Grant>>>,
+        earlier: u32,
+        step: u32,
+    ) -> impl Firmware {
+        Scripted(move |message: &ToAdapter| {
             let earlier_steps = match *message {
                 ToAdapter::Sim(SimToAdapter::Continue(grant)) => {
-                    self.grants.push(grant);
-                    self.earlier
+                    grants.borrow_mut().push(grant);
+                    earlier
                 }
                 _ => 0,
             };
-            Ok(Handled {
-                instructions: self.step,
+            Handled {
+                instructions: step,
                 cycle_pending: true,
                 earlier_steps,
-                earlier_instructions: earlier_steps * self.step,
+                earlier_instructions: earlier_steps * step,
                 ..Handled::default()
-            })
-        }
-        fn restart(&mut self) -> io::Result<()> {
-            Ok(())
-        }
-        fn drive_send(&mut self, _: &[u8]) -> io::Result<()> {
-            Ok(())
-        }
-        fn drive_receive(&mut self, _: usize) -> io::Result<Vec<u8>> {
-            Ok(Vec::new())
-        }
+            }
+        })
     }
 
-    /// A bridge whose MCU is free at 1 ms with steps of its cycle left and nothing on its way.
-    fn cycling(earlier: u32, step: u32) -> Bridge<Cycling> {
-        let firmware = Cycling {
-            grants: Vec::new(),
-            earlier,
-            step,
-        };
+    /// A bridge whose MCU is free at 1 ms with steps of its cycle left and nothing on its way,
+    /// and the grants its firmware gets.
+    fn cycling_bridge(
+        earlier: u32,
+        step: u32,
+    ) -> (
+        Bridge<impl Firmware>,
+        std::rc::Rc<std::cell::RefCell<Vec<Grant>>>,
+    ) {
+        let grants = std::rc::Rc::default();
+        let firmware = cycling(std::rc::Rc::clone(&grants), earlier, step);
         let mut bridge = Bridge::new(firmware, 48_000_000, 5, None);
         bridge.mcu_free_ns = 1_000_000;
         bridge.to_mcu_free_ns = 1_000_000;
         bridge.cycle_pending = true;
-        bridge
+        (bridge, grants)
     }
 
     #[test]
     fn a_grant_reaches_as_far_as_the_shortest_telegram_event_can_come() {
-        let mut bridge = cycling(0, 100);
+        let (mut bridge, grants) = cycling_bridge(0, 100);
         let board = bridge.board;
         bridge.poll(1_000_000).unwrap();
         // Nothing is pending: the next event is a telegram ending now at the earliest, an SD1
@@ -744,7 +738,7 @@ mod tests {
         let horizon_ns = board.link.transfer_ns(14) + board.irq_entry_ns();
         let budget = board.instructions_taking_ns(horizon_ns);
         assert_eq!(
-            bridge.firmware.grants,
+            *grants.borrow(),
             [Grant {
                 budget_instructions: budget
             }]
@@ -759,14 +753,14 @@ mod tests {
         bridge.poll(start).unwrap();
         let horizon_ns = landing + board.link.transfer_ns(6) + board.irq_entry_ns();
         assert_eq!(
-            bridge.firmware.grants[1].budget_instructions,
+            grants.borrow()[1].budget_instructions,
             board.instructions_taking_ns(horizon_ns - start)
         );
     }
 
     #[test]
     fn the_last_step_of_a_grant_waits_for_the_mcu_and_a_step_past_the_grant_fails_the_run() {
-        let mut bridge = cycling(3, 100);
+        let (mut bridge, _) = cycling_bridge(3, 100);
         let board = bridge.board;
         bridge.poll(1_000_000).unwrap();
         // Three steps ran; the fourth is placed after them and taken when the MCU is free.
@@ -776,18 +770,14 @@ mod tests {
         assert!(bridge.granted_last_step.is_none());
         assert_eq!(bridge.figures.cycle_steps, 4);
         // A firmware that ran past its grant is caught.
-        let mut bridge = cycling(100, 1_000);
+        let (mut bridge, _) = cycling_bridge(100, 1_000);
         let err = bridge.poll(1_000_000).unwrap_err();
         assert!(err.to_string().contains("past its grant"), "{err}");
     }
 
     #[test]
     fn the_board_charges_the_idle_character_and_a_write_waits_for_the_one_before() {
-        let firmware = Fixed {
-            decision: 720,
-            total: 1440,
-            inputs: vec![0x55; 12],
-        };
+        let firmware = fixed(720, 1440, vec![0x55; 12]);
         let mut bridge = Bridge::new(firmware, 48_000_000, 5, None);
         let board = bridge.board;
         let link = board.link;

@@ -392,7 +392,9 @@ impl<F: Firmware> Bridge<F> {
             Grant::ONE_STEP
         } else {
             Grant {
-                budget_instructions: self.board.instructions_taking_ns(horizon_ns - start_ns),
+                budget_instructions: self
+                    .board
+                    .instructions_taking_ns(horizon_ns.saturating_sub(start_ns)),
             }
         };
         let handled = self.exchange(&ToAdapter::Sim(SimToAdapter::Continue(grant)))?;
@@ -423,8 +425,9 @@ impl<F: Firmware> Bridge<F> {
     /// not yet on the link is created no earlier than: a telegram, this poll's bus time (one
     /// that is still arriving ends later) or, where it would replace outputs not yet sent,
     /// their start; a timer, its time; the watchdog, the responder's deadline; and either of
-    /// them, when a status or registers write not yet landed moves that time. It then takes at least the shortest
-    /// such event's bytes on the link, and the interrupt's entry.
+    /// them, when a status or registers write not yet landed moves that time. It then takes
+    /// at least the shortest such event's bytes on the link, and the interrupt's entry. Every
+    /// time it names is later than this poll's: whatever was due by then went first.
     fn horizon_ns(&self) -> u64 {
         let entry = self.board.irq_entry_ns();
         let queue_free = self.to_mcu_free_ns;

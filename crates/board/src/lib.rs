@@ -95,18 +95,20 @@ impl Board {
 
     /// The fewest counted instructions that take at least `ns`: every count below it ends
     /// before `ns` (a lookahead of `ns` in instructions, as hal-sim grants it to the firmware).
-    pub fn instructions_taking_ns(&self, ns: u64) -> u32 {
-        // An estimate from the inverse of `instructions_ns`, then exact on its rounding.
-        let per_instruction_ns =
-            self.cycles_per_instruction_pct as f64 * 1e7 / self.mcu_clock_hz as f64;
-        let mut n = (ns as f64 / per_instruction_ns) as u64;
-        while n > 0 && self.instructions_ns(n - 1) >= ns {
-            n -= 1;
+    /// The exact inverse of [`Board::instructions_ns`], one rounding up at a time.
+    pub const fn instructions_taking_ns(&self, ns: u64) -> u32 {
+        if ns == 0 {
+            return 0;
         }
-        while self.instructions_ns(n) < ns {
-            n += 1;
+        // The fewest cycles whose time, rounded up, reaches `ns`; then the fewest
+        // instructions whose cycles, rounded up, reach those.
+        let cycles = (ns - 1) * self.mcu_clock_hz as u64 / 1_000_000_000 + 1;
+        let n = (cycles - 1) * 100 / self.cycles_per_instruction_pct as u64 + 1;
+        if n > u32::MAX as u64 {
+            u32::MAX
+        } else {
+            n as u32
         }
-        u32::try_from(n).unwrap_or(u32::MAX)
     }
 
     /// Nanoseconds from an interrupt request to its handler.

@@ -24,6 +24,8 @@
 mod board;
 mod drive_uart;
 mod ram_test;
+#[cfg(feature = "sim")]
+mod sim_pipe;
 
 use defmt::error;
 #[cfg(feature = "adapter-in-image")]
@@ -150,6 +152,9 @@ macro_rules! adapter_app {
                 producer: Producer<'static, { crate::LINK_QUEUE_LEN }>,
                 consumer: Consumer<'static, { crate::LINK_QUEUE_LEN }>,
                 wake: Sender<'static, (), 1>,
+                /// The idle loop's, to hand over hal-sim's messages from its pipe (simulation
+                /// only; a board's idle loop only sleeps).
+                idle_wake: Sender<'static, (), 1>,
             }
 
             #[init]
@@ -160,6 +165,8 @@ macro_rules! adapter_app {
                 info!("boot: {=str}, firmware {=str}", board::BOARD.description, crate::VERSION);
                 info!("cycle counter: 100 nops count {=u32} cycles", board::calibrate());
                 let mut link_tx = board::link_tx();
+                #[cfg(feature = "sim")]
+                crate::sim_pipe::open();
                 send(&mut link_tx, &mut [0; dp_link::MAX_FRAME_LEN], &FromAdapter::Ready);
                 if let Err(address) = crate::ram_test::result() {
                     // Seed 000 line 685: Run steady on, and the adapter does not start.
@@ -178,15 +185,25 @@ macro_rules! adapter_app {
                         link_tx: Some(link_tx),
                         producer,
                         consumer,
+                        idle_wake: wake.clone(),
                         wake,
                     },
                 )
             }
 
-            #[idle]
-            fn idle(_: idle::Context) -> ! {
-                loop {
-                    cortex_m::asm::wfi();
+            /// Sleeps between interrupts. Under simulation it waits for hal-sim's next message
+            /// on its pipe instead (`sim_pipe`), and hands the simulation's own to the link
+            /// task.
+            #[idle(local = [idle_wake])]
+            fn idle(cx: idle::Context) -> ! {
+                #[cfg(feature = "sim")]
+                crate::sim_pipe::serve(cx.local.idle_wake);
+                #[cfg(not(feature = "sim"))]
+                {
+                    let _unused_on_a_board = cx.local.idle_wake;
+                    loop {
+                        cortex_m::asm::wfi();
+                    }
                 }
             }
 
@@ -254,11 +271,19 @@ macro_rules! adapter_app {
                                     }
                                     Fed::Message(message, r) => {
                                         handle(cx.local.adapter, tx, cx.local.frame, &message);
+                                        #[cfg(feature = "sim")]
+                                        crate::sim_pipe::handled();
                                         rest = r;
                                     }
                                 }
                             }
                             grant.release(len);
+                            continue;
+                        }
+                        #[cfg(feature = "sim")]
+                        if let Some(message) = crate::sim_pipe::take() {
+                            handle(cx.local.adapter, tx, cx.local.frame, &ToAdapter::Sim(message));
+                            crate::sim_pipe::handled();
                             continue;
                         }
                         // The queue is empty: one step of the drive application's cycle, then
@@ -325,7 +350,7 @@ macro_rules! adapter_app {
                 if let ToAdapter::Sim(dp_link::sim::SimToAdapter::StackPeak) = *message {
                     let (used_bytes, room_bytes) = crate::ram_test::stack_peak();
                     let peak = dp_link::sim::SimFromAdapter::StackPeak { used_bytes, room_bytes };
-                    send(tx, frame, &FromAdapter::Sim(peak));
+                    crate::sim_pipe::reply(frame, &peak);
                     return;
                 }
                 // Instructions are counted from the frame's end, for hal-sim's board time.
@@ -400,7 +425,8 @@ macro_rules! adapter_app {
                     }
                 }
                 #[cfg(feature = "sim")]
-                send(tx, frame, &FromAdapter::Sim(dp_link::sim::SimFromAdapter::Done {
+                crate::sim_pipe::reply(frame, &dp_link::sim::SimFromAdapter::Done {
+                    link_frames: writes.get(),
                     earlier_steps: earlier.0,
                     earlier_instructions: earlier.1,
                     decision_instructions: decision.0,
@@ -408,7 +434,7 @@ macro_rules! adapter_app {
                     instructions: board::cycles_since(start.get()),
                     drive_tx_bytes: adapter::Background::drive_tx_bytes(adapter.app()),
                     cycle_pending: adapter.cycle_pending(),
-                }));
+                });
                 log_changes(before, adapter);
             }
 

@@ -9,13 +9,21 @@
 //! link UART) connects to; QEMU's stdout carries only the defmt stream (semihosting), collected
 //! for the caller to decode.
 //!
+//! Every message is announced on the simulation's pipe ([`dp_link::sim::Next`], a FIFO that
+//! the firmware reads over semihosting while it idles): the simulation's own messages go there
+//! whole, the product's go on the link UART after their announcement. The firmware's replies
+//! (`Done`, the stack's peak) come back on a second FIFO, the product's writes on the link
+//! UART, `Done` saying how many. A byte on the link UART costs QEMU a main-loop turn on its
+//! way in and a socket write on its way out, a message on the pipe one host read or write.
+//!
 //! The drive UART is a second byte stream (QEMU's UART1 on a second socket). The caller reads
 //! exactly the bytes [`Handled::drive_tx_bytes`] says were sent, and writes the drive's answers
 //! before the `DriveBytes` message that tells the firmware how many have arrived: the lockstep
 //! that keeps the drive link on simulated time.
 
-use dp_link::sim::{SimFromAdapter, SimToAdapter};
+use dp_link::sim::{Next, SimFromAdapter, SimToAdapter};
 use dp_link::{FromAdapter, Regs, Status, ToAdapter, MAX_FRAME_LEN};
+use std::fs::File;
 use std::io::{self, Read, Write as _};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
@@ -36,7 +44,7 @@ pub enum Write {
 }
 
 impl Write {
-    /// Owns a product message; `None` for the simulation's own and for Ready.
+    /// Owns a product message; `None` for Ready.
     pub fn from_message(message: &FromAdapter) -> Option<Write> {
         Some(match *message {
             FromAdapter::Regs(r) => Write::Regs(r),
@@ -51,7 +59,7 @@ impl Write {
                 bytes: bytes.to_vec(),
             },
             FromAdapter::Status(s) => Write::Status(s),
-            FromAdapter::Ready | FromAdapter::Sim(_) => return None,
+            FromAdapter::Ready => return None,
         })
     }
 
@@ -252,6 +260,16 @@ const ICOUNT: &str = "shift=7,align=off,sleep=off";
 /// The same, but QEMU sleeps while the guest waits for an interrupt.
 const ICOUNT_REALTIME: &str = "shift=7,align=off,sleep=on";
 
+/// The simulation's pipe, two FIFOs in QEMU's working directory (the firmware's `sim_pipe`
+/// opens them by these names): hal-sim's announcements, and the firmware's replies.
+pub const SIM_PIPE_NEXT: &str = "sim-next.fifo";
+pub const SIM_PIPE_REPLIES: &str = "sim-replies.fifo";
+
+/// How often a wait for a reply looks whether QEMU is still there: the replies' FIFO stays open
+/// here (for reading and writing, so that neither side's open waits), so QEMU's end closing
+/// never ends the wait.
+const LIVENESS_POLL: Duration = Duration::from_millis(100);
+
 /// How long a reply may take in wall time before the run is declared hung.
 pub const REPLY_TIMEOUT: Duration = Duration::from_secs(20);
 
@@ -268,6 +286,12 @@ pub struct Qemu {
     child: Child,
     link: TcpStream,
     drive: TcpStream,
+    /// The simulation's pipe, and the directory that holds it (QEMU's working directory),
+    /// removed when dropped; the bytes of replies read past the last frame.
+    next: File,
+    replies: File,
+    replies_pending: Vec<u8>,
+    _pipe_dir: tempfile::TempDir,
     pending: Vec<u8>,
     defmt: Arc<Mutex<Vec<u8>>>,
     stdout_reader: Option<JoinHandle<()>>,
@@ -306,6 +330,21 @@ impl Qemu {
         let port = listener.local_addr()?.port();
         let drive_listener = TcpListener::bind("127.0.0.1:0")?;
         let drive_port = drive_listener.local_addr()?.port();
+        let pipe_dir = tempfile::Builder::new().prefix("hal-sim-").tempdir()?;
+        let fifo = |name: &str| -> io::Result<File> {
+            let path = pipe_dir.path().join(name);
+            nix::unistd::mkfifo(&path, nix::sys::stat::Mode::S_IRWXU).map_err(io::Error::from)?;
+            // Read and write: opening a FIFO for one end alone waits for the other, and with
+            // both ends held here the firmware's open never waits either.
+            std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .open(&path)
+        };
+        let next = fifo(SIM_PIPE_NEXT)?;
+        let replies = fifo(SIM_PIPE_REPLIES)?;
+        // The image by its full path: QEMU runs in the pipe's directory.
+        let elf = std::path::absolute(elf)?;
         let mut child = Command::new(qemu)
             .args([
                 "-machine",
@@ -332,7 +371,8 @@ impl Qemu {
                 &std::env::var("HALSIM_ICOUNT").unwrap_or_else(|_| icount.into()),
                 "-kernel",
             ])
-            .arg(elf)
+            .arg(&elf)
+            .current_dir(pipe_dir.path())
             // More QEMU arguments, for a profile: `-d in_asm,exec,nochain -D qemu.log` logs
             // every translated block and each run of one, enough to count instructions per
             // function.
@@ -373,6 +413,10 @@ impl Qemu {
             child,
             link,
             drive,
+            next,
+            replies,
+            replies_pending: Vec::new(),
+            _pipe_dir: pipe_dir,
             pending: Vec::new(),
             defmt,
             stdout_reader: Some(stdout_reader),
@@ -470,62 +514,120 @@ impl Qemu {
     }
 }
 
+impl Qemu {
+    /// Hands `message` to the firmware: the simulation's own on the pipe, the product's on the
+    /// link UART after their announcement there.
+    fn send(&mut self, message: &ToAdapter) -> io::Result<()> {
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let next = match *message {
+            ToAdapter::Sim(sim) => Next::Sim(sim),
+            _ => {
+                let bytes = dp_link::encode(message, &mut frame)
+                    .map_err(|_| io::Error::other("message does not fit a frame"))?;
+                self.link.write_all(bytes)?;
+                Next::OnLink
+            }
+        };
+        let bytes = dp_link::encode(&next, &mut frame)
+            .map_err(|_| io::Error::other("announcement does not fit a frame"))?;
+        // One write: a FIFO keeps a write of up to PIPE_BUF bytes whole.
+        self.next.write_all(bytes)
+    }
+
+    /// The firmware's next reply on the pipe, waiting up to [`REPLY_TIMEOUT`] and failing at
+    /// once if QEMU exits.
+    fn reply(&mut self) -> io::Result<SimFromAdapter> {
+        use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+        use std::os::fd::AsFd as _;
+        let start = std::time::Instant::now();
+        loop {
+            if let Some(end) = self.replies_pending.iter().position(|b| *b == 0) {
+                let mut frame: Vec<u8> = self.replies_pending.drain(..=end).collect();
+                return dp_link::decode::<SimFromAdapter>(&mut frame)
+                    .map_err(|_| io::Error::other("a reply on the pipe that does not decode"));
+            }
+            let mut fds = [PollFd::new(self.replies.as_fd(), PollFlags::POLLIN)];
+            let timeout = PollTimeout::try_from(LIVENESS_POLL).expect("a short timeout");
+            if poll(&mut fds, timeout).map_err(io::Error::from)? == 0 {
+                if let Some(status) = self.child.try_wait()? {
+                    return Err(io::Error::other(format!(
+                        "QEMU exited ({status}) before the firmware replied"
+                    )));
+                }
+                if start.elapsed() > REPLY_TIMEOUT {
+                    return Err(io::Error::new(
+                        io::ErrorKind::TimedOut,
+                        format!(
+                            "no reply from the firmware within {} s; {} bytes of one had arrived",
+                            REPLY_TIMEOUT.as_secs(),
+                            self.replies_pending.len()
+                        ),
+                    ));
+                }
+                continue;
+            }
+            let mut buf = [0u8; 64];
+            let n = self.replies.read(&mut buf)?;
+            self.replies_pending.extend_from_slice(&buf[..n]);
+        }
+    }
+}
+
 impl Firmware for Qemu {
     fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled> {
-        let mut frame = [0u8; MAX_FRAME_LEN];
-        let bytes = dp_link::encode(message, &mut frame)
-            .map_err(|_| io::Error::other("message does not fit a frame"))?;
-        self.link.write_all(bytes)?;
-        let mut handled = Handled::default();
-        let mut unmarked: Vec<Write> = Vec::new();
-        loop {
+        self.send(message)?;
+        let context = |e: io::Error| io::Error::new(e.kind(), format!("event {message:?}: {e}"));
+        let reply = self.reply().map_err(context)?;
+        let SimFromAdapter::Done {
+            link_frames,
+            earlier_steps,
+            earlier_instructions,
+            decision_instructions,
+            decision_writes,
+            instructions,
+            drive_tx_bytes,
+            cycle_pending,
+        } = reply
+        else {
+            return Err(context(io::Error::other(format!(
+                "{reply:?} instead of Done"
+            ))));
+        };
+        let mut writes = Vec::with_capacity(link_frames as usize);
+        for _ in 0..link_frames {
             let mut frame = [0u8; MAX_FRAME_LEN];
-            let read = self
-                .read_message(&mut frame)
-                .map_err(|e| io::Error::new(e.kind(), format!("event {message:?}: {e}")))?;
-            match read {
-                None => {
-                    return Err(io::Error::other(format!(
-                        "event {message:?}: a frame that does not decode"
-                    )))
-                }
+            match self.read_message(&mut frame).map_err(context)? {
                 Some(FromAdapter::Ready) => {
                     return Err(io::Error::other("Ready again: the firmware restarted"))
                 }
-                Some(FromAdapter::Sim(SimFromAdapter::Done {
-                    earlier_steps,
-                    earlier_instructions,
-                    decision_instructions,
-                    decision_writes,
-                    instructions,
-                    drive_tx_bytes,
-                    cycle_pending,
-                })) => {
-                    let decision_writes = (decision_writes as usize).min(unmarked.len());
-                    handled.writes = unmarked
-                        .drain(..)
-                        .enumerate()
-                        .map(|(i, w)| {
-                            let at = if i < decision_writes {
-                                decision_instructions
-                            } else {
-                                instructions
-                            };
-                            (at, w)
-                        })
-                        .collect();
-                    handled.decision_writes = decision_writes;
-                    handled.decision_instructions = decision_instructions;
-                    handled.instructions = instructions;
-                    handled.drive_tx_bytes = drive_tx_bytes;
-                    handled.cycle_pending = cycle_pending;
-                    handled.earlier_steps = u32::from(earlier_steps);
-                    handled.earlier_instructions = earlier_instructions;
-                    return Ok(handled);
+                Some(other) => writes.extend(Write::from_message(&other)),
+                None => {
+                    return Err(context(io::Error::other("a frame that does not decode")));
                 }
-                Some(other) => unmarked.extend(Write::from_message(&other)),
             }
         }
+        let decision_writes = (decision_writes as usize).min(writes.len());
+        Ok(Handled {
+            writes: writes
+                .into_iter()
+                .enumerate()
+                .map(|(i, w)| {
+                    let at = if i < decision_writes {
+                        decision_instructions
+                    } else {
+                        instructions
+                    };
+                    (at, w)
+                })
+                .collect(),
+            decision_writes,
+            decision_instructions,
+            instructions,
+            drive_tx_bytes,
+            cycle_pending,
+            earlier_steps: u32::from(earlier_steps),
+            earlier_instructions,
+        })
     }
 
     fn restart(&mut self) -> io::Result<()> {
@@ -533,17 +635,12 @@ impl Firmware for Qemu {
     }
 
     fn stack_peak(&mut self) -> io::Result<Option<StackPeak>> {
-        let mut frame = [0u8; MAX_FRAME_LEN];
-        let request = ToAdapter::Sim(SimToAdapter::StackPeak);
-        let bytes = dp_link::encode(&request, &mut frame)
-            .map_err(|_| io::Error::other("message does not fit a frame"))?;
-        self.link.write_all(bytes)?;
-        let mut frame = [0u8; MAX_FRAME_LEN];
-        match self.read_message(&mut frame)? {
-            Some(FromAdapter::Sim(SimFromAdapter::StackPeak {
+        self.send(&ToAdapter::Sim(SimToAdapter::StackPeak))?;
+        match self.reply()? {
+            SimFromAdapter::StackPeak {
                 used_bytes,
                 room_bytes,
-            })) => Ok(Some(StackPeak {
+            } => Ok(Some(StackPeak {
                 used_bytes,
                 room_bytes,
             })),

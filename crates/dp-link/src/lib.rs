@@ -69,7 +69,7 @@ pub enum ToAdapter<'a> {
     WatchdogExpired { seq: u32, now_us: u64 },
     /// The wake-up the firmware asked for ([`Status::wake_at_us`]).
     Timer { seq: u32, now_us: u64 },
-    /// Simulation only.
+    /// Simulation only: on the simulation's pipe ([`sim::Next`]), never on the link UART.
     #[cfg(feature = "sim")]
     Sim(sim::SimToAdapter),
 }
@@ -162,9 +162,6 @@ pub enum FromAdapter<'a> {
     },
     /// LEDs, storage, the wake-up, and figures for observers.
     Status(Status),
-    /// Simulation only.
-    #[cfg(feature = "sim")]
-    Sim(sim::SimFromAdapter),
 }
 
 /// The messages only the simulation has: the drive line's lockstep and the firmware's own
@@ -190,6 +187,28 @@ pub mod sim {
         StackPeak,
     }
 
+    /// What hal-sim says next on the simulation's pipe: a pair of host FIFOs that the
+    /// firmware reads and writes over semihosting (QEMU only; firmware `sim_pipe`). The pipe
+    /// is simulation plumbing, not a link of the board: a message on it costs one host read
+    /// or write, where a frame on the link UART costs QEMU a main-loop turn per byte on its
+    /// way in and a socket write per byte on its way out, and the simulation's own messages
+    /// cost the board's counts nothing either way. The replies ([`SimFromAdapter`]) come back
+    /// on it too.
+    ///
+    /// The firmware blocks on the pipe (QEMU's CPU with it, and its virtual time) while it
+    /// idles, so hal-sim announces every message there, the product's ones included.
+    #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+    #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+    pub enum Next {
+        /// The next message is a frame on the link UART: wait for it as the board would.
+        OnLink,
+        /// The next message is this one.
+        Sim(SimToAdapter),
+    }
+
+    /// The longest [`Next`] framed (a `DriveBytes` with both integers at their longest).
+    pub const NEXT_MAX_FRAME: usize = 20;
+
     /// How far the firmware may run the drive application's cycle before it reports:
     /// conservative lookahead, as in parallel discrete-event simulation. No event can reach
     /// the MCU before `budget_instructions` counted instructions have passed (at the board's
@@ -199,8 +218,7 @@ pub mod sim {
     /// The firmware runs the first step; then the next one while ([`Grant::allows_another`])
     /// the steps before have used fewer counted instructions than the budget, the last one
     /// wrote nothing to the transceiver and nothing to the drive (whose answer or effect
-    /// hal-sim must place in time before anything else runs), and a step remains. Every byte
-    /// of it costs a QEMU main-loop turn on the way in, so it is only the budget.
+    /// hal-sim must place in time before anything else runs), and a step remains.
     #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
     #[cfg_attr(feature = "defmt", derive(defmt::Format))]
     pub struct Grant {
@@ -233,7 +251,11 @@ pub mod sim {
         /// After a [`SimToAdapter::Continue`], `earlier_steps` steps ran before the last one,
         /// in `earlier_instructions` together, with no write and no drive byte; the rest of
         /// the fields are the last step's, counted from its own start.
+        ///
+        /// `link_frames`: the writes sent on the link UART for the message, all before this
+        /// `Done` went on the pipe (the UART's bytes leave as the firmware writes them).
         Done {
+            link_frames: u32,
             earlier_steps: u8,
             earlier_instructions: u32,
             decision_instructions: u32,
@@ -360,11 +382,18 @@ impl Leds {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error {
     BufferTooShort,
+    /// A frame whose bytes are not a message of the type asked for.
+    NotAMessage,
 }
 
 /// Encodes `message` as one COBS frame (zero-terminated) into `buffer`.
 pub fn encode<'b, T: Serialize>(message: &T, buffer: &'b mut [u8]) -> Result<&'b mut [u8], Error> {
     postcard::to_slice_cobs(message, buffer).map_err(|_| Error::BufferTooShort)
+}
+
+/// Decodes one COBS frame (zero-terminated), in place.
+pub fn decode<'f, T: Deserialize<'f>>(frame: &'f mut [u8]) -> Result<T, Error> {
+    postcard::from_bytes_cobs(frame).map_err(|_| Error::NotAMessage)
 }
 
 /// Cuts a byte stream into frames and decodes them; built on postcard's COBS accumulator.
@@ -556,15 +585,6 @@ mod tests {
                 bytes: &buffer[..244],
             },
             FromAdapter::Status(status()),
-            FromAdapter::Sim(sim::SimFromAdapter::Done {
-                earlier_steps: u8::MAX,
-                earlier_instructions: u32::MAX,
-                decision_instructions: u32::MAX,
-                decision_writes: u32::MAX,
-                instructions: u32::MAX,
-                drive_tx_bytes: u32::MAX,
-                cycle_pending: true,
-            }),
         ];
         for write in writes {
             let mut buf = [0u8; MAX_FRAME_LEN];
@@ -589,6 +609,57 @@ mod tests {
             [format!("{:?}", ToAdapter::Timer { seq: 5, now_us: 6 })]
         );
         assert_eq!(dropped, 1);
+    }
+
+    #[test]
+    fn the_pipe_messages_at_their_longest_decode_as_they_were_sent() {
+        let announcements = [
+            sim::Next::OnLink,
+            sim::Next::Sim(sim::SimToAdapter::DriveBytes {
+                now_us: u64::MAX,
+                drive_rx_bytes: u32::MAX,
+            }),
+            sim::Next::Sim(sim::SimToAdapter::Continue(sim::Grant {
+                budget_instructions: u32::MAX,
+            })),
+            sim::Next::Sim(sim::SimToAdapter::StackPeak),
+        ];
+        for next in announcements {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let frame = encode(&next, &mut buf).unwrap();
+            assert!(
+                frame.len() <= sim::NEXT_MAX_FRAME,
+                "{next:?}: {} bytes",
+                frame.len()
+            );
+            assert_eq!(decode::<sim::Next>(frame), Ok(next));
+        }
+        let replies = [
+            sim::SimFromAdapter::Done {
+                link_frames: u32::MAX,
+                earlier_steps: u8::MAX,
+                earlier_instructions: u32::MAX,
+                decision_instructions: u32::MAX,
+                decision_writes: u32::MAX,
+                instructions: u32::MAX,
+                drive_tx_bytes: u32::MAX,
+                cycle_pending: true,
+            },
+            sim::SimFromAdapter::StackPeak {
+                used_bytes: u32::MAX,
+                room_bytes: u32::MAX,
+            },
+        ];
+        for reply in replies {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let frame = encode(&reply, &mut buf).unwrap();
+            assert_eq!(decode::<sim::SimFromAdapter>(frame), Ok(reply));
+        }
+        let mut not_a_message = [0x02, 0xFF, 0x00];
+        assert_eq!(
+            decode::<sim::Next>(&mut not_a_message),
+            Err(Error::NotAMessage)
+        );
     }
 
     #[test]

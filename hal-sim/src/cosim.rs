@@ -512,21 +512,26 @@ impl<F: Firmware> CoSim<F> {
         if let Some(at) = self.bridge.next_ns() {
             limit = limit.min(ticks_from_ns(at).saturating_sub(self.now).max(1));
         }
+        // Fast mode on a driven line too: every block skips only clocks that change nothing
+        // but its counters, so the line holds still until the next edge one of them makes.
         let quiet = match &self.master {
-            Some(m) => m.phy.tx.quiet_for().min(m.phy.rx.quiet_for(line)),
+            Some(m) => {
+                let rx_quiet = m.phy.rx.quiet_for(line, master_drive.is_some());
+                m.phy.tx.quiet_for().min(rx_quiet)
+            }
             None => Tick::MAX,
         }
         .min(self.bus.faults.quiet_for(self.now))
         .min(limit);
         let busy = !line || master_drive.is_some() || adapter_drive.is_some();
-        let (ticks, out) = if quiet > 1 && !busy {
+        let (ticks, out) = if quiet > 1 {
             self.adapter.advance(line, quiet)
         } else {
             (1, self.adapter.tick(line))
         };
         if let Some(master) = &mut self.master {
             if busy {
-                master.phy.last_activity = self.now;
+                master.phy.last_activity = self.now + ticks - 1;
             }
             if ticks == 1 {
                 if let Some(ch) = master.phy.rx.tick(line, master_drive.is_some()) {

@@ -237,7 +237,7 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize, hsa: u8) -> io::R
         let mut quiet = (next_poll - now).max(1);
         quiet = quiet
             .min(master_phy.tx.quiet_for())
-            .min(master_phy.rx.quiet_for(line));
+            .min(master_phy.rx.quiet_for(line, master_drive.is_some()));
         for a in &adapters {
             quiet = quiet.min(a.phy.quiet_for(line));
             if let Some(at) = a.bridge.next_ns() {

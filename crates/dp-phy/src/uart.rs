@@ -262,6 +262,34 @@ impl UartRx {
         (out, d)
     }
 
+    /// Clocks that [`next`](Self::next) would spend only moving the phase, for a constant
+    /// filtered `level` with no fall: up to the clock that takes a sample or crosses a bit
+    /// boundary (left to `next`). None in the start bit on a high level, where every clock
+    /// looks for a false start; no limit while idle.
+    pub fn quiet_for(&self, level: bool, q: &RxQ) -> Tick {
+        if !q.active {
+            return Tick::MAX;
+        }
+        if q.bit == 0 && level {
+            return 0;
+        }
+        let inc = self.timing.inc;
+        // The clock whose phase reaches the modulus, and the one whose step (16 x phase)
+        // reaches the next sample point, are the first two that do more.
+        let mut quiet = (self.timing.modulo - q.ph).div_ceil(inc) - 1;
+        if let Some(&point) = self.points().iter().find(|&&thr| thr > 16 * q.ph) {
+            quiet = quiet.min((point - 16 * q.ph).div_ceil(16 * inc) - 1);
+        }
+        quiet
+    }
+
+    /// Lets `ticks` pass that [`quiet_for`](Self::quiet_for) allowed.
+    pub fn skip(&self, ticks: Tick, q: &mut RxQ) {
+        if q.active {
+            q.ph += ticks * self.timing.inc;
+        }
+    }
+
     /// The threshold of the bit's last sample.
     fn last_vote(&self) -> u64 {
         *self.points().last().expect("at least one sample point")

@@ -5,7 +5,7 @@
 //! ([`ToAdapter`]) and collects what the firmware writes while it handles it ([`Handled`]):
 //! the product's writes for the transceiver, each with the instructions the firmware had run
 //! when it sent it (the simulation-only `Done` mark), so that the caller places
-//! them in board time. The QEMU side is a localhost socket that QEMU's first serial port (the
+//! them in board time. The QEMU side is a Unix socket that QEMU's first serial port (the
 //! link UART) connects to; QEMU's stdout carries only the defmt stream (semihosting), collected
 //! for the caller to decode.
 //!
@@ -25,7 +25,7 @@ use dp_link::sim::{Next, SimFromAdapter, SimToAdapter};
 use dp_link::{FromAdapter, Regs, Status, ToAdapter, MAX_FRAME_LEN};
 use std::fs::File;
 use std::io::{self, Read, Write as _};
-use std::net::{TcpListener, TcpStream};
+use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -284,8 +284,8 @@ pub struct Qemu {
     /// defmt bytes of earlier power cycles, each run's stream decoded on its own.
     earlier_runs: Vec<Vec<u8>>,
     child: Child,
-    link: TcpStream,
-    drive: TcpStream,
+    link: UnixStream,
+    drive: UnixStream,
     /// The simulation's pipe, and the directory that holds it (QEMU's working directory),
     /// removed when dropped; the bytes of replies read past the last frame.
     next: File,
@@ -312,7 +312,7 @@ impl Qemu {
     }
 
     /// Starts QEMU with `elf` on `machine` (a board's `Runs::Qemu`), its first serial port (the
-    /// link) and its second (the drive link) connected to fresh localhost sockets, `-icount
+    /// link) and its second (the drive link) connected to fresh Unix sockets, `-icount
     /// shift=7` so that the firmware's cycle counts repeat run to run.
     pub fn start(qemu: &Path, elf: &Path, machine: &str) -> io::Result<Qemu> {
         Qemu::start_with(qemu, elf, machine, ICOUNT)
@@ -326,11 +326,13 @@ impl Qemu {
     }
 
     fn start_with(qemu: &Path, elf: &Path, machine: &str, icount: &str) -> io::Result<Qemu> {
-        let listener = TcpListener::bind("127.0.0.1:0")?;
-        let port = listener.local_addr()?.port();
-        let drive_listener = TcpListener::bind("127.0.0.1:0")?;
-        let drive_port = drive_listener.local_addr()?.port();
         let pipe_dir = tempfile::Builder::new().prefix("hal-sim-").tempdir()?;
+        // Unix sockets for the UARTs: QEMU writes a UART's bytes one at a time, and a byte
+        // through the loopback's TCP stack cost several times as much.
+        let link_path = pipe_dir.path().join("link.sock");
+        let drive_path = pipe_dir.path().join("drive.sock");
+        let listener = UnixListener::bind(&link_path)?;
+        let drive_listener = UnixListener::bind(&drive_path)?;
         let fifo = |name: &str| -> io::Result<File> {
             let path = pipe_dir.path().join(name);
             nix::unistd::mkfifo(&path, nix::sys::stat::Mode::S_IRWXU).map_err(io::Error::from)?;
@@ -355,14 +357,13 @@ impl Qemu {
                 "none",
                 "-monitor",
                 "none",
-                // nodelay: replies go out a byte at a time; Nagle would hold them back.
                 "-chardev",
-                &format!("socket,id=link,host=127.0.0.1,port={port},nodelay=on"),
+                &format!("socket,id=link,path={}", link_path.display()),
                 "-serial",
                 "chardev:link",
                 // UART1: the drive link.
                 "-chardev",
-                &format!("socket,id=drive,host=127.0.0.1,port={drive_port},nodelay=on"),
+                &format!("socket,id=drive,path={}", drive_path.display()),
                 "-serial",
                 "chardev:drive",
                 "-semihosting-config",
@@ -389,7 +390,6 @@ impl Qemu {
         let drive = accept(&drive_listener, &mut child, "drive")?;
         for stream in [&link, &drive] {
             stream.set_nonblocking(false)?;
-            stream.set_nodelay(true)?;
             stream.set_read_timeout(Some(REPLY_TIMEOUT))?;
         }
         let defmt = Arc::new(Mutex::new(Vec::new()));
@@ -664,7 +664,7 @@ impl Firmware for Qemu {
 }
 
 /// The connection QEMU makes for one chardev, or why it never came.
-fn accept(listener: &TcpListener, child: &mut Child, name: &str) -> io::Result<TcpStream> {
+fn accept(listener: &UnixListener, child: &mut Child, name: &str) -> io::Result<UnixStream> {
     listener.set_nonblocking(true)?;
     let start = std::time::Instant::now();
     loop {

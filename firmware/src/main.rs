@@ -384,6 +384,8 @@ macro_rules! adapter_app {
                 let (start, writes) = (core::cell::Cell::new(start), core::cell::Cell::new(0u32));
                 #[cfg(feature = "sim")]
                 let mut decision = (0u32, 0u32);
+                #[cfg(feature = "sim")]
+                let mut drive_instructions = 0u32;
                 let mut out = |out: Out| match out {
                     Out::Write(write) => {
                         send(tx, frame, &write);
@@ -394,6 +396,13 @@ macro_rules! adapter_app {
                         #[cfg(feature = "sim")]
                         {
                             decision = (board::cycles_since(start.get()), writes.get());
+                        }
+                    }
+                    Out::DriveQueued => {
+                        crate::drive_uart::kick();
+                        #[cfg(feature = "sim")]
+                        {
+                            drive_instructions = board::cycles_since(start.get());
                         }
                     }
                 };
@@ -419,6 +428,11 @@ macro_rules! adapter_app {
                         earlier = (earlier.0 + 1, used);
                         start.set(board::timestamp());
                     },
+                    // The drive's answer is in its UART: the drive link's turn is next.
+                    #[cfg(feature = "sim")]
+                    ToAdapter::Sim(dp_link::sim::SimToAdapter::DriveBytes { now_us, .. }) => {
+                        adapter.drive_answer(*now_us);
+                    }
                     _ => {
                         adapter.decide(message, &mut out);
                         crate::drive_uart::kick();
@@ -427,6 +441,7 @@ macro_rules! adapter_app {
                 #[cfg(feature = "sim")]
                 crate::sim_pipe::reply(frame, &dp_link::sim::SimFromAdapter::Done {
                     link_frames: writes.get(),
+                    drive_instructions,
                     earlier_steps: earlier.0,
                     earlier_instructions: earlier.1,
                     decision_instructions: decision.0,

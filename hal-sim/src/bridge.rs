@@ -77,6 +77,9 @@ pub struct LinkFigures {
     /// For each new Data_Exchange the MCU handled: from its outputs' arrival at the MCU to
     /// the last write of the firmware's decision in the transceiver, in ns.
     pub outputs_to_inputs_ns: Vec<u64>,
+    /// Each new Data_Exchange's outputs on their way through the MCU, for the latency
+    /// breakdown.
+    pub outputs_events: Vec<OutputsEvent>,
     /// The longest time an event waited for the MCU (queue and link).
     pub worst_event_latency_ns: u64,
     /// New Data_Exchanges handed over, DP watchdog expiries, and Set_Prm received.
@@ -88,6 +91,19 @@ pub struct LinkFigures {
     pub round_trips: u64,
     pub continues: u64,
     pub cycle_steps: u64,
+}
+
+/// A new Data_Exchange's outputs from the bus into the firmware, in ns.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OutputsEvent {
+    /// The request telegram's end on the bus.
+    pub telegram_end_ns: u64,
+    /// Its event through the link and the MCU's interrupt entry.
+    pub at_mcu_ns: u64,
+    /// The MCU starts on it, after the step it was running.
+    pub handled_ns: u64,
+    /// The firmware's decision is written (the outputs are in its process image).
+    pub decided_ns: u64,
 }
 
 impl LinkFigures {
@@ -500,6 +516,12 @@ impl<F: Firmware> Bridge<F> {
             self.figures
                 .outputs_to_inputs_ns
                 .push(decided_ns - e.arrived_ns);
+            self.figures.outputs_events.push(OutputsEvent {
+                telegram_end_ns: e.at_ns,
+                at_mcu_ns: e.arrived_ns + self.board.irq_entry_ns(),
+                handled_ns: start_ns,
+                decided_ns,
+            });
         }
         Ok(())
     }
@@ -533,6 +555,8 @@ impl<F: Firmware> Bridge<F> {
             + self
                 .board
                 .instructions_ns(u64::from(handled.decision_instructions));
+        // The MCU blocked on writes before the drive's bytes went to its UART.
+        let mut blocked_before_drive_ns = 0;
         for (i, (instructions, write)) in handled.writes.iter().enumerate() {
             let sent = start_ns + self.board.instructions_ns(u64::from(*instructions)) + blocked_ns;
             let begin = sent.max(self.from_mcu_free_ns);
@@ -548,6 +572,9 @@ impl<F: Firmware> Bridge<F> {
             if i < handled.decision_writes {
                 decided_ns = arrived;
             }
+            if *instructions <= handled.drive_instructions {
+                blocked_before_drive_ns = blocked_ns;
+            }
             self.figures.writes += 1;
             self.from_mcu.push_back((arrived, write.clone()));
         }
@@ -555,11 +582,18 @@ impl<F: Firmware> Bridge<F> {
             start_ns + self.board.instructions_ns(u64::from(handled.instructions)) + blocked_ns;
         self.mcu_free_ns = done_ns;
         self.cycle_pending = handled.cycle_pending;
-        // The bytes the firmware wrote to its drive UART go on the drive line when it is done.
+        // The bytes the firmware wrote to its drive UART go on the drive line when it handed
+        // them over: where it said, else when it is done.
         let sent = handled.drive_tx_bytes.wrapping_sub(self.drive.received);
         if sent > 0 {
+            let handed_ns = match handled.drive_instructions {
+                0 => done_ns,
+                at => {
+                    start_ns + self.board.instructions_ns(u64::from(at)) + blocked_before_drive_ns
+                }
+            };
             let bytes = self.firmware.drive_receive(sent as usize)?;
-            self.drive.from_firmware(done_ns / 1000, &bytes);
+            self.drive.from_firmware(handed_ns / 1000, &bytes);
         }
         Ok(decided_ns)
     }

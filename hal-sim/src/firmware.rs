@@ -97,6 +97,9 @@ pub struct Handled {
     pub instructions: u32,
     /// Bytes sent to the drive UART since power-up.
     pub drive_tx_bytes: u32,
+    /// Instructions run when the bytes for the drive were handed to its UART, where that was
+    /// before the end (0: at the end, after `instructions`).
+    pub drive_instructions: u32,
     /// Steps of the drive application's cycle remain: the MCU runs the next one
     /// ([`SimToAdapter::Continue`]) when no event waits.
     pub cycle_pending: bool,
@@ -209,6 +212,7 @@ impl Firmware for InProcess {
                 .borrow_mut()
                 .extend(Write::from_message(&write).map(|w| (0, w))),
             adapter::Out::DecisionWritten => decision_writes.set(writes.borrow().len()),
+            adapter::Out::DriveQueued => {}
         };
         match message {
             // As the firmware runs a grant's steps, each one 0 instructions.
@@ -222,6 +226,9 @@ impl Firmware for InProcess {
                 }
                 handled.earlier_steps += 1;
             },
+            ToAdapter::Sim(SimToAdapter::DriveBytes { now_us, .. }) => {
+                adapter.drive_answer(*now_us);
+            }
             _ => {
                 adapter.decide(message, &mut out);
             }
@@ -580,6 +587,7 @@ impl Firmware for Qemu {
         let reply = self.reply().map_err(context)?;
         let SimFromAdapter::Done {
             link_frames,
+            drive_instructions,
             earlier_steps,
             earlier_instructions,
             decision_instructions,
@@ -624,6 +632,7 @@ impl Firmware for Qemu {
             decision_instructions,
             instructions,
             drive_tx_bytes,
+            drive_instructions,
             cycle_pending,
             earlier_steps: u32::from(earlier_steps),
             earlier_instructions,

@@ -95,6 +95,18 @@ pub trait Background {
     fn run_step(&mut self, _now_us: u64, _step: u8) -> Step {
         Step::Done(None)
     }
+    /// The cycle's first steps that make the drive link's turn: the drive's answer in, the
+    /// process data across, the next request out. A drive answer runs them at once, ahead of
+    /// the rest of a cycle under way ([`Adapter::drive_answer`]).
+    fn drive_turn_steps(&self) -> u8 {
+        0
+    }
+    /// New outputs came, at `now_us`: where the drive link is free, they go to it at once
+    /// (the turn's process data and request steps), without waiting for a cycle. Returns
+    /// whether a request is on its way.
+    fn outputs_turn(&mut self, _now_us: u64) -> bool {
+        false
+    }
     /// Bytes written to the drive UART since power-up.
     fn drive_tx_bytes(&self) -> u32 {
         0
@@ -144,18 +156,23 @@ impl Background for dp_slave::testing::EchoApp {}
 impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
     fn run_step(&mut self, now_us: u64, step: u8) -> Step {
         let now = Instant::from_micros(now_us);
-        // The images to the link, the link on, and what it just answered into the images,
-        // so that the next data exchange carries it.
+        // The drive link's turn first (DRIVE_TURN_STEPS): the answer in, the newest outputs
+        // to the link, the next request out. Then what can wait for the transaction under
+        // way: the parameter channel (its request goes with the next turn), DP-V1, the
+        // fieldbus group, and the process data whole (the answer into the inputs, the
+        // drive's faults, the mapping, the cut-off).
         match step {
-            0 => self.service_pzd(now),
-            1 => self.service_pkw(now),
-            2 => self.drive_mut().pump(),
-            3 => {
+            0 => self.drive_mut().pump(),
+            1 => {
                 self.drive_mut().poll_answer(now_us);
             }
-            4 => self.drive_mut().start_next(now_us),
-            // After the drive's transaction has started: a DP-V1 parameter costs the process
-            // data no time.
+            2 => {
+                if let Some((out, words)) = self.pzd_for_drive() {
+                    self.drive_mut().set_outputs(&out[..words]);
+                }
+            }
+            3 => self.drive_mut().start_next(now_us),
+            4 => self.service_pkw(now),
             5 => self.service_dpv1(),
             6 => sync_fieldbus_group(self),
             7 => self.service_pzd(now),
@@ -165,6 +182,23 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
             }
         }
         Step::More
+    }
+
+    fn drive_turn_steps(&self) -> u8 {
+        DRIVE_TURN_STEPS
+    }
+
+    fn outputs_turn(&mut self, now_us: u64) -> bool {
+        if !self.drive().is_free() {
+            return false;
+        }
+        // The outputs only: the drive's answer and its faults wait for the cycle.
+        let Some((out, words)) = self.pzd_for_drive() else {
+            return false;
+        };
+        self.drive_mut().set_outputs(&out[..words]);
+        self.drive_mut().start_next(now_us);
+        !self.drive().is_free()
     }
 
     fn drive_tx_bytes(&self) -> u32 {
@@ -260,6 +294,9 @@ fn sync_fieldbus_group<U: Read<u8> + Write<u8>>(app: &mut DriveApp<U>) {
         group.show(fieldbus::index::PPO_TYPE, ppo);
     }
 }
+
+/// The drive application's cycle steps that make the drive link's turn (`run_step` 0..=3).
+const DRIVE_TURN_STEPS: u8 = 4;
 
 /// The switch position that restores the factory defaults.
 pub const SWITCH_FACTORY_RESET: u8 = 99;
@@ -423,6 +460,9 @@ pub enum Out<'a> {
     /// The writes of the event's decision are all out; the drive application's cycle follows
     /// (a simulation marks the time here).
     DecisionWritten,
+    /// Bytes for the drive are queued: send them now, before the work that follows (new
+    /// outputs' request goes out ahead of the inputs' write to the transceiver).
+    DriveQueued,
 }
 
 /// Global_Control, to one station or many.
@@ -518,6 +558,11 @@ pub struct Adapter<A> {
     cycle: Option<CycleStep>,
     /// An event asked for a cycle while one was under way: another follows.
     cycle_again: bool,
+    /// A drive answer came while a cycle was under way: the drive link's turn runs after
+    /// the current step ([`Adapter::drive_answer`]).
+    turn_due: bool,
+    /// Where the cycle goes on after a drive link's turn that came in the middle of it.
+    resume: Option<CycleStep>,
     /// The rate the application was last told (`Background::rate`).
     rate_told: u8,
     /// The address the application was last told (`Background::station`).
@@ -572,6 +617,8 @@ impl<A: Application + Background> Adapter<A> {
             background_at: Some(0),
             cycle: None,
             cycle_again: false,
+            turn_due: false,
+            resume: None,
             rate_told: u8::MAX,
             station_told: addressing.address,
             now_us: 0,
@@ -622,9 +669,10 @@ impl<A: Application + Background> Adapter<A> {
     }
 
     /// Handles one event (a Boot included: the caller built this adapter for it): the slave's
-    /// decision, its writes, [`Out::DecisionWritten`]; then (but after new outputs, which only
-    /// fill the process image) a cycle of the drive application is due, run by
-    /// [`Adapter::cycle_step`] when no event waits. Returns whether a cycle is due.
+    /// decision, its writes, [`Out::DecisionWritten`]; then (but after new outputs, which go
+    /// to the drive link at once when it is free, [`Out::DriveQueued`]) a cycle of the drive
+    /// application is due, run by [`Adapter::cycle_step`] when no event waits. Returns
+    /// whether a cycle is due.
     pub fn decide(&mut self, message: &ToAdapter, out: &mut dyn FnMut(Out)) -> bool {
         let now_us = message.now_us();
         self.now_us = now_us;
@@ -691,17 +739,29 @@ impl<A: Application + Background> Adapter<A> {
             diag: !new_outputs && !acyclic,
             cfg: !new_outputs && !acyclic,
         };
+        // New outputs to the drive, where its link is free: first, their request on the line
+        // while the inputs go to the transceiver, where a Data_Exchange cycle leaves the time
+        // (up to 1.5 Mbit/s: at least 330 µs with PPO4's 12 bytes each way, against the
+        // turn's 40 µs); above, after the inputs, which the next Data_Exchange may need within
+        // 140 µs at 12 Mbit/s.
+        let drive_first = self.rate_told <= dp_consts::Baud::B1500000.index() as u8;
+        if new_outputs && drive_first && self.slave.app_mut().inner.outputs_turn(now_us) {
+            out(Out::DriveQueued);
+        }
         self.write_buffers(now, decided, parts, out);
         out(Out::DecisionWritten);
+        if new_outputs && !drive_first && self.slave.app_mut().inner.outputs_turn(now_us) {
+            out(Out::DriveQueued);
+        }
         if !new_outputs && !acyclic {
             // What the decision changed in the status (the state, the address, the DP LEDs)
             // is out before the cycle runs. The drive link's LEDs are the cycle's to change:
             // they keep what the last cycle showed, or they would go out for its length.
             self.write_status(out, false);
         }
-        // New outputs only fill the process image: the drive application's cycle runs on the
-        // drive's answers and its wake-ups, and its next PZD transaction takes them. Every
-        // other event asks for a cycle.
+        // New outputs ask for no cycle: they went to the drive above, or the turn after the
+        // transaction under way takes them (the drive's answer starts it). Every other event
+        // asks for a cycle.
         if !new_outputs {
             if self.cycle.is_some() {
                 self.cycle_again = true;
@@ -717,14 +777,53 @@ impl<A: Application + Background> Adapter<A> {
         self.cycle.is_some()
     }
 
+    /// The drive's answer is in the drive UART, at `now_us` (on a board the drive UART's
+    /// interrupt says so; under simulation hal-sim's `DriveBytes`). The drive link's turn
+    /// runs next: at once when no cycle is under way, else after the step under way, the
+    /// cycle going on where it was after the turn. Nothing is written: the cycle's own steps
+    /// write what the answer changed. Returns whether a cycle step is pending.
+    pub fn drive_answer(&mut self, now_us: u64) -> bool {
+        self.now_us = now_us;
+        match self.cycle {
+            None => self.cycle = Some(CycleStep::App(0)),
+            // A turn about to start takes the answer with it.
+            Some(CycleStep::App(0)) => {}
+            Some(_) => self.turn_due = true,
+        }
+        true
+    }
+
     /// Runs the next step of the drive application's cycle, at the last event's time: its
     /// steps, then the writes of what it changed and the status. Returns whether steps remain.
     pub fn cycle_step(&mut self, out: &mut dyn FnMut(Out)) -> bool {
         let Some(step) = self.cycle else {
             return false;
         };
+        let next = self.run_cycle_step(step, out);
+        let turn = self.slave.app().inner.drive_turn_steps();
+        self.cycle = match next {
+            // The end of a turn that came in the middle of a cycle: the cycle goes on.
+            Some(CycleStep::App(n)) if n == turn && self.resume.is_some() => self.resume.take(),
+            // A drive answer waits, and no turn is under way (one whose answer step has run
+            // is over first): the turn first, then the rest of the cycle (a whole one when this one is over: the answer's inputs must be
+            // written).
+            next if self.turn_due
+                && self.resume.is_none()
+                && !matches!(next, Some(CycleStep::App(n)) if n < turn) =>
+            {
+                self.turn_due = false;
+                self.resume = Some(next.unwrap_or(CycleStep::App(turn)));
+                Some(CycleStep::App(0))
+            }
+            next => next,
+        };
+        self.cycle.is_some()
+    }
+
+    /// Runs `step`; returns the one after it.
+    fn run_cycle_step(&mut self, step: CycleStep, out: &mut dyn FnMut(Out)) -> Option<CycleStep> {
         let now_us = self.now_us;
-        self.cycle = match step {
+        match step {
             CycleStep::App(n) => match self.slave.app_mut().inner.run_step(now_us, n) {
                 Step::More => Some(CycleStep::App(n.saturating_add(1))),
                 Step::Done(at) => {
@@ -758,8 +857,7 @@ impl<A: Application + Background> Adapter<A> {
                     None
                 }
             }
-        };
-        self.cycle.is_some()
+        }
     }
 
     /// The end of a cycle: the inputs the drive application changed go to the transceiver

@@ -254,8 +254,11 @@ pub mod sim {
         ///
         /// `link_frames`: the writes sent on the link UART for the message, all before this
         /// `Done` went on the pipe (the UART's bytes leave as the firmware writes them).
+        /// `drive_instructions`: when the drive's bytes were handed to its UART, where that
+        /// was before the end (0: at the end).
         Done {
             link_frames: u32,
+            drive_instructions: u32,
             earlier_steps: u8,
             earlier_instructions: u32,
             decision_instructions: u32,
@@ -637,6 +640,7 @@ mod tests {
         let replies = [
             sim::SimFromAdapter::Done {
                 link_frames: u32::MAX,
+                drive_instructions: u32::MAX,
                 earlier_steps: u8::MAX,
                 earlier_instructions: u32::MAX,
                 decision_instructions: u32::MAX,

@@ -3,11 +3,13 @@
 //! Contract:
 //! - `exchange_pzd` only copies: the outputs into the out image, the in image (the last
 //!   cycle's answer) into the inputs, and the link's state as its result. [`LinkedDrive::poll`]
-//!   runs the cycles on its own, back to back: one 17h transaction writes PZD 1..N out and
-//!   reads PZD 1..N in. A cycle's answer is the drive's state after the cycle's writes.
-//!   While the drive holds the outputs already, a cycle only reads the in block (03h, about
-//!   60% of the line time), and the outputs are written again every [`REWRITE_US`] so that a
-//!   value changed at the drive's side is overwritten, as cyclic process data does.
+//!   runs the cycles on its own. New outputs go first, as soon as the line is free, and
+//!   carry only the words that changed: one word with a write (06h, 8 bytes on the line),
+//!   more with an exchange (17h) that writes them and reads PZD 1..N in. The outputs are
+//!   written whole again every [`REWRITE_US`] so that a value changed at the drive's side is
+//!   overwritten, as cyclic process data does. While the drive holds the outputs, the in
+//!   block is read (03h) once every [`READ_PERIOD_US`], not back to back: the line is free
+//!   most of the time when new outputs come (README "Latency").
 //! - The PZD mapping (the targets and sources of PZD2..N) lives in the drive's mapping
 //!   registers. The link writes the ones that changed before the next cycle, and all of them
 //!   again after the link failed (the drive may have restarted).
@@ -24,7 +26,7 @@
 //!   delayed by more than one short transaction.
 
 use crate::{ModbusMaster, Op, Outcome, MAX_PZD_WORDS, STATUS_WORD_REGISTER};
-use crate::{PZD_IN_MAP, PZD_OUT_MAP};
+use crate::{PZD_IN_MAP, PZD_OUT_BLOCK, PZD_OUT_MAP};
 use embedded_hal_nb::serial::{Read, Write};
 use heapless09::{Deque, Vec};
 use profidrive::codes::FunctionCode;
@@ -35,6 +37,12 @@ use profidrive::fieldbus_group::FieldbusGroup;
 pub const KEEPALIVE_US: u64 = 100_000;
 /// The longest a cycle reads only: then the outputs are written again though unchanged.
 pub const REWRITE_US: u64 = 10_000;
+/// The shortest time from one read of the in block to the next while the drive holds the
+/// outputs. A read under way when new outputs come holds them back by up to its length;
+/// read back to back (every 150-300 µs), nearly every change waited for one, where reads
+/// this far apart leave the line free four times in five. The price: the in block is up to
+/// this much older when a data exchange takes it.
+pub const READ_PERIOD_US: u64 = 500;
 /// How long a request or an answer keeps seed 000's TX or RX LED flashing.
 pub const LED_ACTIVITY_US: u64 = 200_000;
 
@@ -49,10 +57,13 @@ enum Job {
     Request(Ticket, Op),
     /// Writes mapping register: `(out, slot)`, slot 0 is PZD2.
     Map(bool, usize),
-    /// A PZD cycle; `write`: the outputs it writes, `None` for a cycle that only reads.
+    /// A PZD cycle; `write`: the outputs it writes (of which the drive gets words
+    /// `first..first + count`), `None` for a cycle that only reads.
     Cycle {
         words: usize,
         write: Option<[u16; MAX_PZD_WORDS]>,
+        first: usize,
+        count: usize,
     },
     KeepAlive,
     /// A transaction of the fieldbus group.
@@ -107,9 +118,12 @@ pub struct LinkedDrive<U> {
     group: FieldbusGroup,
     /// The last transaction was a cycle: the group may have the next one.
     cycle_ran: bool,
-    /// The outputs the drive holds (the last written), and when they were written.
+    /// The outputs the drive holds (the last written), and when they were last written
+    /// whole.
     drive_out: Option<[u16; MAX_PZD_WORDS]>,
     written_at_us: u64,
+    /// When the in block was last read by a cycle that only reads.
+    read_at_us: Option<u64>,
     /// When a request last went out, and when the drive last answered (any valid frame).
     last_request_us: Option<u64>,
     last_answer_us: Option<u64>,
@@ -142,6 +156,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             cycle_ran: false,
             drive_out: None,
             written_at_us: 0,
+            read_at_us: None,
             last_request_us: None,
             last_answer_us: None,
             figures: LinkFigures::new(),
@@ -183,12 +198,30 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
     pub fn poll_at(&self) -> Option<u64> {
         match self.job {
             Some(_) => self.master.deadline(),
-            None if self.words == 0 && self.requests.is_empty() => Some(
+            // A request waits for the free line: at once.
+            None if !self.requests.is_empty() => Some(0),
+            None if self.words == 0 => Some(
                 self.group
                     .poll_at()
                     .map_or(self.next_keepalive_us, |at| at.min(self.next_keepalive_us)),
             ),
-            None => None,
+            // Data exchange, the line free: the next read of the in block (new outputs come
+            // with a turn of their own).
+            None => Some(self.read_at_us.map_or(0, |at| at + READ_PERIOD_US)),
+        }
+    }
+
+    /// No transaction is under way: the line is free for the next.
+    pub fn is_free(&self) -> bool {
+        self.job.is_none()
+    }
+
+    /// New outputs for the out image, ahead of the next `exchange_pzd` (which brings the
+    /// mapping and takes the in image): only while the configuration's size is the same, so
+    /// that a new configuration still starts with its mapping.
+    pub fn set_outputs(&mut self, out: &[u16]) {
+        if out.len() == self.words {
+            self.out[..out.len()].copy_from_slice(out);
         }
     }
 
@@ -247,9 +280,17 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         }
     }
 
+    /// The next transaction, in this order: the mapping (what the out block means), new
+    /// outputs, a parameter request (first of all while the link fails), the fieldbus group
+    /// (one between two cycles), a read of the in block when one is due.
     fn next_job(&mut self, now_us: u64) -> Option<Job> {
-        if let Some((ticket, op)) = self.requests.pop_front() {
-            return Some(Job::Request(ticket, op));
+        // While the link fails, a request first: it gets its answer or its error in its own
+        // time, where the mapping and the outputs would take every turn trying again.
+        let link_down = self.link_error.is_some_and(DriveError::is_link_fault);
+        if link_down {
+            if let Some((ticket, op)) = self.requests.pop_front() {
+                return Some(Job::Request(ticket, op));
+            }
         }
         let slots = self.words.saturating_sub(1);
         for slot in 0..slots {
@@ -260,6 +301,13 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                 return Some(Job::Map(false, slot));
             }
         }
+        if let Some(job) = self.output_write() {
+            self.cycle_ran = true;
+            return Some(job);
+        }
+        if let Some((ticket, op)) = self.requests.pop_front() {
+            return Some(Job::Request(ticket, op));
+        }
         if self.words == 0 || self.cycle_ran {
             if let Some(transaction) = self.group.next_transaction(now_us) {
                 self.cycle_ran = false;
@@ -267,14 +315,22 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             }
         }
         if self.words > 0 {
+            let due = self
+                .read_at_us
+                .is_none_or(|at| now_us.saturating_sub(at) >= READ_PERIOD_US);
+            if !due {
+                return None;
+            }
             self.cycle_ran = true;
-            let mut out = [0; MAX_PZD_WORDS];
-            out[..self.words].copy_from_slice(&self.out[..self.words]);
-            let held = self.drive_out == Some(out)
-                && now_us.saturating_sub(self.written_at_us) < REWRITE_US;
+            self.read_at_us = Some(now_us);
+            // A read, or where a rewrite is due, the outputs whole with it (17h): in the
+            // read's place, so that it holds back no new outputs that a read would not.
+            let rewrite = now_us.saturating_sub(self.written_at_us) >= REWRITE_US;
             return Some(Job::Cycle {
                 words: self.words,
-                write: (!held).then_some(out),
+                write: rewrite.then_some(self.out),
+                first: 0,
+                count: if rewrite { self.words } else { 0 },
             });
         }
         if now_us >= self.next_keepalive_us {
@@ -284,19 +340,57 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         None
     }
 
+    /// The outputs the drive does not hold yet, as a cycle that writes the words from the
+    /// first that differs to the last (all of them where the drive's are unknown).
+    fn output_write(&self) -> Option<Job> {
+        let words = self.words;
+        if words == 0 {
+            return None;
+        }
+        let out = self.out;
+        let (first, count) = match self.drive_out {
+            Some(held) => {
+                let differs = |i: &usize| held[*i] != out[*i];
+                let first = (0..words).find(differs)?;
+                let last = (0..words).rev().find(differs)?;
+                (first, last + 1 - first)
+            }
+            None => (0, words),
+        };
+        Some(Job::Cycle {
+            words,
+            write: Some(out),
+            first,
+            count,
+        })
+    }
+
     fn op(&self, job: Job) -> Op {
         match job {
             Job::Request(_, op) => op,
             Job::Map(true, slot) => Op::Write(PZD_OUT_MAP + 1 + slot as u16, self.targets[slot]),
             Job::Map(false, slot) => Op::Write(PZD_IN_MAP + 1 + slot as u16, self.sources[slot]),
+            // One word: the shortest frame there is; the next read brings the in block.
+            Job::Cycle {
+                write: Some(out),
+                first,
+                count: 1,
+                ..
+            } => Op::Write(PZD_OUT_BLOCK + first as u16, out[first]),
             Job::Cycle {
                 words,
                 write: Some(out),
+                first,
+                count,
             } => Op::Exchange {
                 words: words as u8,
+                first: first as u8,
+                count: count as u8,
                 out,
             },
-            Job::Cycle { words, write: None } => Op::ReadInputs { words: words as u8 },
+            Job::Cycle {
+                words, write: None, ..
+            } => Op::ReadInputs { words: words as u8 },
             Job::KeepAlive => Op::Read(STATUS_WORD_REGISTER),
             Job::Group(transaction) => op_of(transaction),
         }
@@ -361,17 +455,28 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                     _ => Some(wanted),
                 };
             }
-            Job::Cycle { words, write } => {
+            Job::Cycle {
+                words,
+                write,
+                count,
+                ..
+            } => {
                 self.figures.cycles += 1;
-                match result {
-                    Ok(Outcome::Values(values)) => {
-                        self.inp = values;
-                        self.in_words = words;
-                        if write.is_some() {
-                            self.drive_out = write;
+                let mut written = || {
+                    if write.is_some() {
+                        self.drive_out = write;
+                        if count == words {
                             self.written_at_us = now_us;
                         }
                     }
+                };
+                match result {
+                    Ok(Outcome::Values(values)) => {
+                        written();
+                        self.inp = values;
+                        self.in_words = words;
+                    }
+                    Ok(Outcome::Written) => written(),
                     // The drive refused the cycle (a mapped register it does not have): the
                     // master sees the drive's error value in PZD1.
                     Err(e) if !e.is_link_fault() => self.link_error = Some(e),

@@ -43,6 +43,19 @@ fn block_words(bytes: &[u8]) -> Vec<u16> {
 pub struct Applied {
     pub at_us: u64,
     pub words: Vec<u16>,
+    /// The request that carried it: its last byte handed to the adapter's UART, its first
+    /// and last bits on the line, and the end of the answer before it (the line's last
+    /// transaction), for the latency's breakdown.
+    pub request: RequestTimes,
+}
+
+/// A request's way onto the line, in µs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RequestTimes {
+    pub handed_us: u64,
+    pub start_us: u64,
+    pub end_us: u64,
+    pub previous_answer_us: u64,
 }
 
 #[derive(Debug, Default)]
@@ -50,6 +63,10 @@ pub struct DriveLine {
     pub drive: DriveSim,
     request: Vec<u8>,
     line_free_us: u64,
+    /// When the last answer was complete at the adapter.
+    last_answer_us: u64,
+    /// The out block as the requests on the line have written it (PZD1 first).
+    out_block: Vec<u16>,
     deliveries: VecDeque<(u64, Vec<u8>)>,
     /// Bytes taken from the firmware and given to it.
     pub received: u32,
@@ -91,14 +108,24 @@ impl DriveLine {
         self.requests += 1;
         let start = t_us.max(self.line_free_us);
         let end = start + frame_us(request.len());
+        let times = RequestTimes {
+            handed_us: t_us,
+            start_us: start,
+            end_us: end,
+            previous_answer_us: self.last_answer_us,
+        };
         self.line_free_us = end + gap_us();
         let at = end + PROCESSING_US;
         self.advance_to(at);
         let answer = self.drive.modbus(request);
-        if request.get(1) == Some(&drive_link::READ_WRITE_MULTIPLE) && request.len() >= 13 {
-            let words = block_words(&request[11..request.len() - 2]);
+        if self.note_out_block(request) {
+            let words = self.out_block.clone();
             if self.applied.last().map(|a| &a.words) != Some(&words) {
-                self.applied.push(Applied { at_us: at, words });
+                self.applied.push(Applied {
+                    at_us: at,
+                    words,
+                    request: times,
+                });
             }
         }
         if let Some(answer) = answer {
@@ -111,12 +138,50 @@ impl DriveLine {
             if reads_in_block && answer.get(1) == request.get(1) && answer.len() >= 5 {
                 let words = block_words(&answer[3..answer.len() - 2]);
                 if self.answered.last().map(|a| &a.words) != Some(&words) {
-                    self.answered.push(Applied { at_us: done, words });
+                    self.answered.push(Applied {
+                        at_us: done,
+                        words,
+                        request: times,
+                    });
                 }
             }
+            self.last_answer_us = done;
             self.line_free_us = done + gap_us();
             self.deliveries.push_back((done, answer));
         }
+    }
+
+    /// Takes the words `request` writes into the out block (a write of one register, 06h,
+    /// or an exchange's writes, 17h) into the drive's out block as the line has carried it;
+    /// returns whether there were any.
+    fn note_out_block(&mut self, request: &[u8]) -> bool {
+        let word = |at: usize| {
+            request
+                .get(at..at + 2)
+                .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        };
+        let (first, values) = match (request.get(1).copied(), word(2), word(6)) {
+            (Some(crate::WRITE_SINGLE), Some(register), _) if request.len() == 8 => {
+                (register, vec![word(4).unwrap_or(0)])
+            }
+            (Some(drive_link::READ_WRITE_MULTIPLE), _, Some(register)) if request.len() >= 13 => {
+                (register, block_words(&request[11..request.len() - 2]))
+            }
+            _ => return false,
+        };
+        let Some(at) = first.checked_sub(drive_link::PZD_OUT_BLOCK) else {
+            return false;
+        };
+        let at = usize::from(at);
+        if at >= drive_link::MAX_PZD_WORDS {
+            return false;
+        }
+        let end = at + values.len();
+        if self.out_block.len() < end {
+            self.out_block.resize(end, 0);
+        }
+        self.out_block[at..end].copy_from_slice(&values);
+        true
     }
 
     /// When the next answer is complete at the firmware.

@@ -347,6 +347,39 @@ impl<D: Drive> ProfidriveApp<D> {
         self.note_link(now, result.err());
     }
 
+    /// The words `apply` makes for the drive: PZD1/PZD2 are the PROFIdrive CW and REF where
+    /// the profile translates, and the state machine makes the drive's.
+    fn drive_words(&mut self, apply: &[u16; MAX_PZD_WORDS]) -> [u16; MAX_PZD_WORDS] {
+        let mut to_drive = *apply;
+        if self.prm.operation.translates() {
+            let d = self.profile.command(
+                apply[0],
+                apply[1] as i16,
+                self.drive_status,
+                self.rated_reference,
+                self.prm.operation.rated_units(),
+            );
+            to_drive[0] = d.control_word;
+            to_drive[1] = d.reference;
+        }
+        to_drive
+    }
+
+    /// The words the outputs make for the drive now (the fail-safe and the state machine
+    /// applied) and how many, for a drive link that takes them at once: the rest of
+    /// [`ProfidriveApp::service_pzd`] (the drive's answer, its faults, the cut-off) waits for
+    /// the cycle. `None` before a PZD configuration.
+    pub fn pzd_for_drive(&mut self) -> Option<([u16; MAX_PZD_WORDS], usize)> {
+        let words = self.pzd_words();
+        if words == 0 {
+            return None;
+        }
+        let apply = self.outputs_to_apply();
+        // What the drive was given: the fail-safe's last speed holds it.
+        self.pzd_applied = apply;
+        Some((self.drive_words(&apply), words))
+    }
+
     fn exchange_with_drive(
         &mut self,
         now: Instant,
@@ -356,19 +389,7 @@ impl<D: Drive> ProfidriveApp<D> {
         let profidrive = self.prm.operation.translates();
         let units = self.prm.operation.rated_units();
         let (targets, sources) = self.pzd_mapping();
-        let mut to_drive = *apply;
-        if profidrive {
-            // PZD1/PZD2 are the PROFIdrive CW and REF: the state machine makes the drive's.
-            let d = self.profile.command(
-                apply[0],
-                apply[1] as i16,
-                self.drive_status,
-                self.rated_reference,
-                units,
-            );
-            to_drive[0] = d.control_word;
-            to_drive[1] = d.reference;
-        }
+        let to_drive = self.drive_words(apply);
         let mut from_drive = self.pzd_in;
         // The drive's own status word, not the one the master saw (translated, or 0xC0xx).
         from_drive[0] = self.drive_status;

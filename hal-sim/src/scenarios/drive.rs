@@ -880,6 +880,7 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::
         wait(sim, 20_000, |_, _| false)?;
         sim.log_dx = true;
         let (mut to_drive, mut to_master, mut to_adapter) = (Vec::new(), Vec::new(), Vec::new());
+        let mut parts = Vec::new();
         for n in 0..20u64 {
             // Outputs: a new set frequency in PZD2.
             let value = 100 + n as u16 * 10;
@@ -897,8 +898,20 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::
             let applied = sim.bridge.drive.applied[applied_before..]
                 .iter()
                 .find(|a| a.words.get(1) == Some(&value))
-                .map(|a| a.at_us);
-            match (arrived, applied) {
+                .cloned();
+            let event = arrived.and_then(|a| {
+                sim.bridge
+                    .figures
+                    .outputs_events
+                    .iter()
+                    .rev()
+                    .copied()
+                    .find(|e| e.telegram_end_ns / 1000 == a)
+            });
+            if let (Some(e), Some(applied)) = (event, &applied) {
+                parts.push(OutToDrive::new(&e, applied));
+            }
+            match (arrived, applied.map(|a| a.at_us)) {
                 (Some(a), Some(b)) if b >= a => to_drive.push(b - a),
                 _ => c.check(
                     format!("PPO{}: output {value} traced to the drive", ppo.number()),
@@ -966,12 +979,84 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::
             SEED_000_LATENCY[ppo.number() as usize - 1].0,
             SEED_000_LATENCY[ppo.number() as usize - 1].1,
         ));
+        report.push(format!(
+            "  out->drive in parts, worst/median us: {}",
+            OutToDrive::summary(&parts)
+        ));
         c.check(
             format!("PPO{}: every change traced both ways", ppo.number()),
-            to_drive.len() == 20 && to_master.len() == 20,
+            to_drive.len() == 20 && to_master.len() == 20 && parts.len() == 20,
         );
+        // Not asserted yet (issue 29 is open): PPO4 is over its target; see the README's
+        // "Latency" for the floor the drive link and the MCU's link set.
+        let target = SEED_000_LATENCY[ppo.number() as usize - 1].1;
+        let verdict = |value: u64, bound: u64| if value <= bound { "met" } else { "OVER" };
+        report.push(format!(
+            "  target: worst {} us <= {target} ({}), median {} us <= {} ({})",
+            worst(&to_drive),
+            verdict(worst(&to_drive), target),
+            median(&mut to_drive.clone()),
+            target / 2,
+            verdict(median(&mut to_drive.clone()), target / 2),
+        ));
     }
     Ok(report)
+}
+
+/// One output change from the master to the drive, in its parts (µs): the event through the
+/// link to the MCU's interrupt; the MCU finishing the step it was in; the firmware's decision
+/// (up to the request's hand-over where the drive link was free); the drive link busy with a
+/// transaction that started before (its answer's end); the firmware from then to the
+/// request's last byte in its UART; the line's silence before the request; the request's
+/// frame; the drive's processing.
+#[derive(Clone, Copy, Debug)]
+struct OutToDrive([u64; 8]);
+
+impl OutToDrive {
+    const NAMES: [&'static str; 8] = [
+        "link",
+        "mcu busy",
+        "decision",
+        "drive link busy",
+        "firmware to request",
+        "line silence",
+        "frame",
+        "drive",
+    ];
+
+    fn new(e: &crate::bridge::OutputsEvent, applied: &drive_sim::line::Applied) -> OutToDrive {
+        let us = |ns: u64| ns / 1000;
+        let r = applied.request;
+        // The decision ends when its writes are out, or earlier where the request was handed
+        // over within it (the drive link was free).
+        let (handled, handed) = (us(e.handled_ns), r.handed_us.max(us(e.handled_ns)));
+        let decided = us(e.decided_ns).clamp(handled, handed);
+        let busy_until = r.previous_answer_us.clamp(decided, handed);
+        OutToDrive([
+            us(e.at_mcu_ns).saturating_sub(us(e.telegram_end_ns)),
+            handled.saturating_sub(us(e.at_mcu_ns)),
+            decided - handled,
+            busy_until - decided,
+            handed - busy_until,
+            r.start_us - r.handed_us,
+            r.end_us - r.start_us,
+            applied.at_us - r.end_us,
+        ])
+    }
+
+    /// Each part's worst and median over `changes`.
+    fn summary(changes: &[OutToDrive]) -> String {
+        (0..Self::NAMES.len())
+            .map(|i| {
+                let mut v: Vec<u64> = changes.iter().map(|c| c.0[i]).collect();
+                v.sort_unstable();
+                let worst = v.last().copied().unwrap_or(0);
+                let median = v.get(v.len() / 2).copied().unwrap_or(0);
+                format!("{} {worst}/{median}", Self::NAMES[i])
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 }
 
 /// Seed 000's latency per PPO (its words) and a fifth of it in microseconds.

@@ -4,7 +4,8 @@
 //! Contract: `write` queues a byte; [`kick`] (the firmware calls it after each piece of work,
 //! `flush` does too) pends the drive interrupt, which runs at once (it has the highest
 //! priority) and moves what the hardware takes; the rest goes out from the transmit
-//! interrupt. One interrupt per request, not one per byte: a 25-byte PPO4 request cost 25
+//! interrupt; the interrupt notes an answer's end (the line idle after received bytes) for
+//! [`take_answered`]. One interrupt per request, not one per byte: a 25-byte PPO4 request cost 25
 //! interrupt entries and critical sections, a third of the drive link's step. `read` takes received bytes in order, and reports a line error (noise,
 //! framing, parity: seed 000's 0x21) once before the bytes that came with it. [`received`]
 //! counts every byte the interrupt took, for the simulated link's lockstep.
@@ -24,6 +25,20 @@ static RECEIVED: AtomicU32 = AtomicU32::new(0);
 static LINE_ERROR: AtomicBool = AtomicBool::new(false);
 /// Bytes were queued since the drive interrupt last ran.
 static QUEUED: AtomicBool = AtomicBool::new(false);
+/// The line went idle after received bytes: an answer is complete.
+static ANSWERED: AtomicBool = AtomicBool::new(false);
+
+/// The interrupt's side: the line went idle after received bytes.
+#[cfg_attr(feature = "sim", allow(dead_code))]
+pub fn on_line_idle() {
+    ANSWERED.store(true, Ordering::Release);
+}
+
+/// Whether an answer completed since the last look.
+#[cfg_attr(feature = "sim", allow(dead_code))]
+pub fn take_answered() -> bool {
+    ANSWERED.swap(false, Ordering::AcqRel)
+}
 
 /// Starts sending what `write` queued (the drive interrupt moves it to the hardware).
 pub fn kick() {

@@ -14,8 +14,9 @@
 //! the UART and two queues ([`drive_uart`]); the drive application's cycle (its Modbus master
 //! included) runs in the `link` task a step at a time whenever no frame waits, so a decision
 //! the transceiver waits for (new outputs above all) waits for one step, not a whole cycle;
-//! it never waits for the drive. On the QEMU board (feature
-//! `sim`) hal-sim says how many drive bytes have arrived (a simulation-only message); the task
+//! it never waits for the drive. The drive interrupt wakes the task at an answer's end (the
+//! line idle after it) for the drive link's turn. On the QEMU board (feature `sim`) hal-sim
+//! says instead how many drive bytes have arrived (a simulation-only message); the task
 //! waits for them first, so the drive link runs on simulated time and repeats run to run, and
 //! it reports its instruction counts after each event, which hal-sim turns into board time.
 #![no_std]
@@ -155,6 +156,8 @@ macro_rules! adapter_app {
                 /// The idle loop's, to hand over hal-sim's messages from its pipe (simulation
                 /// only; a board's idle loop only sleeps).
                 idle_wake: Sender<'static, (), 1>,
+                /// The drive interrupt's, for an answer's end.
+                drive_wake: Sender<'static, (), 1>,
             }
 
             #[init]
@@ -186,6 +189,7 @@ macro_rules! adapter_app {
                         producer,
                         consumer,
                         idle_wake: wake.clone(),
+                        drive_wake: wake.clone(),
                         wake,
                     },
                 )
@@ -246,10 +250,19 @@ macro_rules! adapter_app {
                 }
             }
 
-            /// The drive UART: above the link, so bytes queued to send leave at once.
-            #[task(binds = $drive_irq, priority = 3)]
-            fn drive_irq(_: drive_irq::Context) {
-                board::drive_interrupt();
+            /// The drive UART: above the link, so bytes queued to send leave at once. An
+            /// answer's end (the line idle after it) wakes the link task for the drive link's
+            /// turn; under simulation hal-sim's `DriveBytes` says so instead, in simulated time.
+            #[task(binds = $drive_irq, priority = 3, local = [drive_wake])]
+            fn drive_irq(cx: drive_irq::Context) {
+                let answered = board::drive_interrupt();
+                #[cfg(not(feature = "sim"))]
+                if answered {
+                    crate::drive_uart::on_line_idle();
+                    let _ = cx.local.drive_wake.try_send(());
+                }
+                #[cfg(feature = "sim")]
+                let _ = (answered, cx.local.drive_wake);
             }
 
             /// Decodes frames, runs the adapter, sends the replies.
@@ -304,6 +317,11 @@ macro_rules! adapter_app {
                 tx: &mut board::Uart,
                 frame: &mut [u8; dp_link::MAX_FRAME_LEN],
             ) -> bool {
+                if crate::drive_uart::take_answered() {
+                    if let Some(adapter) = slot.as_deref_mut() {
+                        adapter.drive_answer(adapter.now_us());
+                    }
+                }
                 let Some(adapter) = slot.as_deref_mut().filter(|a| a.cycle_pending()) else {
                     return false;
                 };

@@ -777,6 +777,11 @@ impl<A: Application + Background> Adapter<A> {
         self.cycle.is_some()
     }
 
+    /// The time of the last event (the firmware's clock between events).
+    pub fn now_us(&self) -> u64 {
+        self.now_us
+    }
+
     /// The drive's answer is in the drive UART, at `now_us` (on a board the drive UART's
     /// interrupt says so; under simulation hal-sim's `DriveBytes`). The drive link's turn
     /// runs next: at once when no cycle is under way, else after the step under way, the

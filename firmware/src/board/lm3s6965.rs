@@ -31,12 +31,15 @@ const FR: usize = 0x018;
 const LCRH: usize = 0x02C;
 const CTL: usize = 0x030;
 const IM: usize = 0x038;
+const MIS: usize = 0x040;
 const ICR: usize = 0x044;
 const FR_RXFE: u32 = 1 << 4;
 const FR_TXFF: u32 = 1 << 5;
 const LCRH_WLEN8_FEN: u32 = 0x70;
 const CTL_UARTEN_TXE_RXE: u32 = 0x301;
 const INT_RX_RT: u32 = (1 << 4) | (1 << 6);
+/// The receive timeout: the line idle after received bytes.
+const INT_RT: u32 = 1 << 6;
 const INT_TX: u32 = 1 << 5;
 /// 8 bits, even parity, FIFOs on: Modbus RTU's 8E1.
 const LCRH_WLEN8_FEN_EVEN_PARITY: u32 = 0x76;
@@ -81,9 +84,11 @@ impl Uart {
 }
 
 /// The drive interrupt's work: received bytes in, queued bytes out while the FIFO takes them,
-/// the transmit interrupt on only while bytes wait.
-pub fn drive_interrupt() {
+/// the transmit interrupt on only while bytes wait. Returns whether the receive timeout came
+/// (the line idle after received bytes: the drive's answer is complete).
+pub fn drive_interrupt() -> bool {
     let uart = Uart { base: UART1_BASE };
+    let idle = uart.read(MIS) & INT_RT != 0;
     uart.write(ICR, INT_RX_RT | INT_TX);
     while uart.read(FR) & FR_RXFE == 0 {
         let data = uart.read(DR);
@@ -100,6 +105,7 @@ pub fn drive_interrupt() {
         waiting = true;
     }
     uart.write(IM, INT_RX_RT | if waiting { INT_TX } else { 0 });
+    idle
 }
 
 /// Runs the drive interrupt (after bytes were queued to send).

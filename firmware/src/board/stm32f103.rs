@@ -72,6 +72,9 @@ const CRH_PIN9_AF_PP_50MHZ: u32 = 0xB << 4;
 // USART
 const SR_RXNE: u16 = 1 << 5;
 const SR_TXE: u16 = 1 << 7;
+// The line idle for a character after received bytes: an answer's end.
+const SR_IDLE: u16 = 1 << 4;
+const CR1_IDLEIE: u16 = 1 << 4;
 const CR1_UE_TE_RE_RXNEIE: u16 = (1 << 13) | (1 << 3) | (1 << 2) | (1 << 5);
 // USART1 for the link: no receive interrupt, the idle-line one instead; receive by DMA.
 #[cfg(not(feature = "stm32f103-qemu"))]
@@ -206,14 +209,18 @@ fn usart2() -> &'static pac::usart1::RegisterBlock {
 
 /// The drive interrupt's work: a received byte in, queued bytes out while the data register
 /// is empty (on the part, one or two: the shift register takes the first at once; under QEMU,
-/// whose TXE never clears, all of them), the TXE interrupt on only while bytes wait.
-pub fn drive_interrupt() {
+/// whose TXE never clears, all of them), the TXE interrupt on only while bytes wait. Returns
+/// whether the line went idle after received bytes (the drive's answer is complete).
+pub fn drive_interrupt() -> bool {
     let u = usart2();
     let sr = u.sr().read().bits();
     if sr & SR_RXNE != 0 {
-        // Reading SR then DR clears the error flags with RXNE.
+        // Reading SR then DR clears the error flags with RXNE, and IDLE.
         let byte = u.dr().read().bits() as u8;
         crate::drive_uart::on_received(byte, sr & SR_ERRORS != 0);
+    } else if sr & SR_IDLE != 0 {
+        // SR then DR clears IDLE; DR holds nothing new.
+        let _ = u.dr().read();
     }
     let mut waiting = false;
     while u.sr().read().bits() & SR_TXE != 0 {
@@ -225,9 +232,10 @@ pub fn drive_interrupt() {
         u.dr().write(|w| unsafe { w.bits(u16::from(byte)) });
         waiting = true;
     }
-    let cr1 = CR1_UE_TE_RE_RXNEIE | CR1_M_PCE | if waiting { CR1_TXEIE } else { 0 };
+    let cr1 = CR1_UE_TE_RE_RXNEIE | CR1_IDLEIE | CR1_M_PCE | if waiting { CR1_TXEIE } else { 0 };
     // SAFETY: the documented CR1 bits named above.
     u.cr1().write(|w| unsafe { w.bits(cr1) });
+    sr & SR_IDLE != 0
 }
 
 /// Runs the drive interrupt (after bytes were queued to send).

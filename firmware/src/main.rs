@@ -403,7 +403,7 @@ macro_rules! adapter_app {
                 #[cfg(feature = "sim")]
                 let mut decision = (0u32, 0u32);
                 #[cfg(feature = "sim")]
-                let mut drive_instructions = 0u32;
+                let drive_instructions = core::cell::Cell::new(0u32);
                 let mut out = |out: Out| match out {
                     Out::Write(write) => {
                         send(tx, frame, &write);
@@ -417,11 +417,14 @@ macro_rules! adapter_app {
                         }
                     }
                     Out::DriveQueued => {
-                        crate::drive_uart::kick();
+                        // The request leaves here: the drive interrupt runs at once and puts
+                        // its first byte on the line (QEMU's UART then takes the rest at once,
+                        // where the part takes one a character: not the request's start).
                         #[cfg(feature = "sim")]
                         {
-                            drive_instructions = board::cycles_since(start.get());
+                            drive_instructions.set(board::cycles_since(start.get()));
                         }
+                        crate::drive_uart::kick();
                     }
                 };
                 // The steps of a grant that ran before the last one, and their instructions.
@@ -432,7 +435,11 @@ macro_rules! adapter_app {
                     ToAdapter::Sim(dp_link::sim::SimToAdapter::Continue(grant)) => loop {
                         let drive_before = adapter::Background::drive_tx_bytes(adapter.app());
                         adapter.cycle_step(&mut out);
-                        // What the step queued for the drive goes out now, in one interrupt.
+                        // What the step queued for the drive goes out now, in one interrupt,
+                        // its first byte at once (as for `Out::DriveQueued`).
+                        if adapter::Background::drive_tx_bytes(adapter.app()) != drive_before {
+                            drive_instructions.set(board::cycles_since(start.get()));
+                        }
                         crate::drive_uart::kick();
                         let used = earlier.1.saturating_add(board::cycles_since(start.get()));
                         let wrote = writes.get() > 0
@@ -459,7 +466,7 @@ macro_rules! adapter_app {
                 #[cfg(feature = "sim")]
                 crate::sim_pipe::reply(frame, &dp_link::sim::SimFromAdapter::Done {
                     link_frames: writes.get(),
-                    drive_instructions,
+                    drive_instructions: drive_instructions.get(),
                     earlier_steps: earlier.0,
                     earlier_instructions: earlier.1,
                     decision_instructions: decision.0,

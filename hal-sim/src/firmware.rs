@@ -381,9 +381,9 @@ impl Qemu {
             ])
             .arg(&elf)
             .current_dir(pipe_dir.path())
-            // More QEMU arguments, for a profile: `-d in_asm,exec,nochain -D qemu.log` logs
-            // every translated block and each run of one, enough to count instructions per
-            // function.
+            // More QEMU arguments, for a profile: `-d in_asm,exec,nochain -D /tmp/qemu.log`
+            // logs every translated block and each run of one, enough to count instructions
+            // per function (a full path: QEMU runs in the pipe's directory, removed after).
             .args(
                 std::env::var("HALSIM_QEMU_EXTRA")
                     .map(|v| v.split_whitespace().map(String::from).collect::<Vec<_>>())

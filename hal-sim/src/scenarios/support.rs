@@ -84,9 +84,10 @@ pub fn probe_services<F: Firmware>(
     use fdl::ResponseStatus as S;
     // Let the last exchange finish on the line (the master's request, the adapter's answer),
     // and its outputs go through the drive and back into the inputs (a few of the drive link's
-    // cycles): Rd_Inp then reads the inputs of the last set frequency, not a race with the
-    // drive link (the golden file records its answer).
-    sim.run_for_us(300 * 1_000_000 / u64::from(baud.bits_per_second()) + 2_000)?;
+    // reads of the in block, one every READ_PERIOD_US): Rd_Inp then reads the inputs of the
+    // last set frequency, not a race with the drive link (the golden file records its answer).
+    let reads_us = 4 * drive_link::READ_PERIOD_US;
+    sim.run_for_us(300 * 1_000_000 / u64::from(baud.bits_per_second()) + 2_000 + reads_us)?;
     let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
     // (what, the service's SAP (none: FDL_Status), payload, the answer's status)
     type Probe<'a> = (&'a str, Option<Sap>, &'a [u8], Option<S>);

@@ -15,8 +15,9 @@
 //! The contract with the link task: a message from the pipe waits in [`take`] until the task
 //! takes it, and the task calls [`handled`] after each message it has handled, from either
 //! source. The idle loop reads the pipe again only when every message announced so far has
-//! been handled, so a message never waits behind a blocked read, and hal-sim (which writes the next announcement only after the last
-//! message's `Done`) never writes one while a message is still on its way.
+//! been handled, so a message never waits behind a blocked read, and hal-sim (which writes
+//! the next announcement only after the last message's `Done`) never writes one while a
+//! message is still on its way.
 //!
 //! Nothing here is counted: the counts run from a frame's end or a step's start, in the link
 //! task, and the idle loop is below it.

@@ -437,13 +437,13 @@ macro_rules! adapter_app {
                         adapter.cycle_step(&mut out);
                         // What the step queued for the drive goes out now, in one interrupt,
                         // its first byte at once (as for `Out::DriveQueued`).
-                        if adapter::Background::drive_tx_bytes(adapter.app()) != drive_before {
+                        let queued = adapter::Background::drive_tx_bytes(adapter.app()) != drive_before;
+                        if queued {
                             drive_instructions.set(board::cycles_since(start.get()));
                         }
                         crate::drive_uart::kick();
                         let used = earlier.1.saturating_add(board::cycles_since(start.get()));
-                        let wrote = writes.get() > 0
-                            || adapter::Background::drive_tx_bytes(adapter.app()) != drive_before;
+                        let wrote = writes.get() > 0 || queued;
                         // A u8 is plenty: a cycle has fewer steps, and a grant ends with it.
                         if !adapter.cycle_pending() || !grant.allows_another(used, wrote) || earlier.0 == u8::MAX {
                             break;

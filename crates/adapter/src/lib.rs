@@ -167,9 +167,7 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
                 self.drive_mut().poll_answer(now_us);
             }
             2 => {
-                if let Some((out, words)) = self.pzd_for_drive() {
-                    self.drive_mut().set_outputs(&out[..words]);
-                }
+                outputs_to_link(self);
             }
             3 => self.drive_mut().start_next(now_us),
             4 => self.service_pkw(now),
@@ -192,11 +190,10 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
         if !self.drive().is_free() {
             return false;
         }
-        // The outputs only: the drive's answer and its faults wait for the cycle.
-        let Some((out, words)) = self.pzd_for_drive() else {
+        // The turn's steps 2 and 3 at once.
+        if !outputs_to_link(self) {
             return false;
-        };
-        self.drive_mut().set_outputs(&out[..words]);
+        }
         self.drive_mut().start_next(now_us);
         !self.drive().is_free()
     }
@@ -293,6 +290,16 @@ fn sync_fieldbus_group<U: Read<u8> + Write<u8>>(app: &mut DriveApp<U>) {
     if let Some(ppo) = ppo {
         group.show(fieldbus::index::PPO_TYPE, ppo);
     }
+}
+
+/// The outputs only, to the drive link's out image (the drive's answer and its faults wait
+/// for the cycle's whole process-data step); false before a PZD configuration.
+fn outputs_to_link<U: Read<u8> + Write<u8>>(app: &mut DriveApp<U>) -> bool {
+    let Some((out, words)) = app.pzd_for_drive() else {
+        return false;
+    };
+    app.drive_mut().set_outputs(&out[..words]);
+    true
 }
 
 /// The drive application's cycle steps that make the drive link's turn (`run_step` 0..=3).

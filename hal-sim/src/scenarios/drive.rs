@@ -958,11 +958,8 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::
         }
         sim.log_dx = false;
         sim.dx = Default::default();
-        let worst = |v: &[u64]| v.iter().copied().max().unwrap_or(0);
-        let median = |v: &mut Vec<u64>| {
-            v.sort_unstable();
-            v.get(v.len() / 2).copied().unwrap_or(0)
-        };
+        let worst = |v: &[u64]| worst_and_median(v).0;
+        let median = |v: &mut Vec<u64>| worst_and_median(v).1;
         report.push(format!(
             "latency PPO{}: out->drive={} us, drive->in={} us",
             ppo.number(),
@@ -1060,15 +1057,21 @@ impl OutToDrive {
     fn summary(changes: &[OutToDrive]) -> String {
         (0..Self::NAMES.len())
             .map(|i| {
-                let mut v: Vec<u64> = changes.iter().map(|c| c.0[i]).collect();
-                v.sort_unstable();
-                let worst = v.last().copied().unwrap_or(0);
-                let median = v.get(v.len() / 2).copied().unwrap_or(0);
+                let v: Vec<u64> = changes.iter().map(|c| c.0[i]).collect();
+                let (worst, median) = worst_and_median(&v);
                 format!("{} {worst}/{median}", Self::NAMES[i])
             })
             .collect::<Vec<_>>()
             .join(", ")
     }
+}
+
+/// The largest of `values` and their (upper) median; 0 for none.
+fn worst_and_median(values: &[u64]) -> (u64, u64) {
+    let mut sorted = values.to_vec();
+    sorted.sort_unstable();
+    let worst = sorted.last().copied().unwrap_or(0);
+    (worst, sorted.get(sorted.len() / 2).copied().unwrap_or(0))
 }
 
 /// Seed 000's latency per PPO (its words) and a fifth of it in microseconds.

@@ -30,6 +30,8 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod cobs;
+
 /// The largest encoded frame: a 255-byte telegram or buffer plus the fields around it, COBS
 /// overhead and the terminating zero.
 pub const MAX_FRAME_LEN: usize = 320;
@@ -391,7 +393,14 @@ pub enum Error {
 
 /// Encodes `message` as one COBS frame (zero-terminated) into `buffer`.
 pub fn encode<'b, T: Serialize>(message: &T, buffer: &'b mut [u8]) -> Result<&'b mut [u8], Error> {
-    postcard::to_slice_cobs(message, buffer).map_err(|_| Error::BufferTooShort)
+    let payload = buffer
+        .get_mut(cobs::PAYLOAD_OFFSET..)
+        .ok_or(Error::BufferTooShort)?;
+    let len = postcard::to_slice(message, payload)
+        .map_err(|_| Error::BufferTooShort)?
+        .len();
+    let frame_len = cobs::encode_in_place(buffer, len).ok_or(Error::BufferTooShort)?;
+    Ok(&mut buffer[..frame_len])
 }
 
 /// Decodes one COBS frame (zero-terminated), in place.
@@ -399,9 +408,10 @@ pub fn decode<'f, T: Deserialize<'f>>(frame: &'f mut [u8]) -> Result<T, Error> {
     postcard::from_bytes_cobs(frame).map_err(|_| Error::NotAMessage)
 }
 
-/// Cuts a byte stream into frames and decodes them; built on postcard's COBS accumulator.
+/// Cuts a byte stream into frames and decodes them, COBS as the bytes are fed
+/// ([`cobs::Decoder`]), then postcard.
 pub struct Deframer {
-    accumulator: postcard::accumulator::CobsAccumulator<MAX_FRAME_LEN>,
+    decoder: cobs::Decoder<MAX_FRAME_LEN>,
     /// Frames dropped: too long, or not a message.
     pub dropped: u32,
 }
@@ -415,7 +425,7 @@ impl Default for Deframer {
 impl Deframer {
     pub const fn new() -> Deframer {
         Deframer {
-            accumulator: postcard::accumulator::CobsAccumulator::new(),
+            decoder: cobs::Decoder::new(),
             dropped: 0,
         }
     }
@@ -423,14 +433,19 @@ impl Deframer {
     /// Feeds bytes until one frame ends. The caller feeds the remaining bytes again until
     /// [`Fed::Pending`]; a message borrows the deframer until it is dropped.
     pub fn feed<'d, 'i, T: Deserialize<'d>>(&'d mut self, input: &'i [u8]) -> Fed<'i, T> {
-        use postcard::accumulator::FeedResult;
-        match self.accumulator.feed_ref::<T>(input) {
-            FeedResult::Consumed => Fed::Pending,
-            FeedResult::Success { data, remaining } => Fed::Message(data, remaining),
-            FeedResult::OverFull(remaining) | FeedResult::DeserError(remaining) => {
+        match self.decoder.feed(input) {
+            cobs::Feed::Pending => Fed::Pending,
+            cobs::Feed::Bad { consumed } => {
                 self.dropped += 1;
-                Fed::Dropped(remaining)
+                Fed::Dropped(&input[consumed..])
             }
+            cobs::Feed::Frame { consumed } => match postcard::from_bytes(self.decoder.frame()) {
+                Ok(message) => Fed::Message(message, &input[consumed..]),
+                Err(_) => {
+                    self.dropped += 1;
+                    Fed::Dropped(&input[consumed..])
+                }
+            },
         }
     }
 }

@@ -148,6 +148,10 @@ macro_rules! adapter_app {
             struct Local {
                 /// The adapter, from the Boot on (`crate::unpowered_adapter`, powered up).
                 adapter: Option<&'static mut Adapter<crate::DriveApp>>,
+                /// The drive link's ends of the drive UART's queues, until the Boot attaches them.
+                drive_ends: Option<crate::drive_uart::LinkEnds>,
+                /// The drive interrupt's ends.
+                drive_queues: crate::drive_uart::InterruptEnds,
                 link_rx: board::Uart,
                 link_tx: Option<board::Uart>,
                 producer: Producer<'static, { crate::LINK_QUEUE_LEN }>,
@@ -160,8 +164,12 @@ macro_rules! adapter_app {
                 drive_wake: Sender<'static, (), 1>,
             }
 
-            #[init]
+            #[init(local = [
+                drive_rx: crate::drive_uart::ByteQueue = crate::drive_uart::ByteQueue::new(),
+                drive_tx: crate::drive_uart::ByteQueue = crate::drive_uart::ByteQueue::new(),
+            ])]
             fn init(cx: init::Context) -> (Shared, Local) {
+                let (drive_ends, drive_queues) = crate::drive_uart::split(cx.local.drive_rx, cx.local.drive_tx);
                 let board = board::init(cx.core, cx.device);
                 let (producer, consumer) = LINK_QUEUE.try_split().unwrap();
                 let (wake, woken) = make_channel!((), 1);
@@ -184,6 +192,8 @@ macro_rules! adapter_app {
                     Shared {},
                     Local {
                         adapter: None,
+                        drive_ends: Some(drive_ends),
+                        drive_queues,
                         link_rx: board.link,
                         link_tx: Some(link_tx),
                         producer,
@@ -253,9 +263,9 @@ macro_rules! adapter_app {
             /// The drive UART: above the link, so bytes queued to send leave at once. An
             /// answer's end (the line idle after it) wakes the link task for the drive link's
             /// turn; under simulation hal-sim's `DriveBytes` says so instead, in simulated time.
-            #[task(binds = $drive_irq, priority = 3, local = [drive_wake])]
+            #[task(binds = $drive_irq, priority = 3, local = [drive_wake, drive_queues])]
             fn drive_irq(cx: drive_irq::Context) {
-                let answered = board::drive_interrupt();
+                let answered = board::drive_interrupt(cx.local.drive_queues);
                 #[cfg(not(feature = "sim"))]
                 if answered {
                     crate::drive_uart::on_line_idle();
@@ -266,7 +276,7 @@ macro_rules! adapter_app {
             }
 
             /// Decodes frames, runs the adapter, sends the replies.
-            #[task(priority = 1, local = [consumer, link_tx, adapter, deframer: Deframer = Deframer::new(), frame: [u8; dp_link::MAX_FRAME_LEN] = [0; dp_link::MAX_FRAME_LEN]])]
+            #[task(priority = 1, local = [consumer, link_tx, adapter, drive_ends, deframer: Deframer = Deframer::new(), frame: [u8; dp_link::MAX_FRAME_LEN] = [0; dp_link::MAX_FRAME_LEN]])]
             async fn link(cx: link::Context, mut woken: Receiver<'static, (), 1>) {
                 let tx = cx.local.link_tx.as_mut().unwrap();
                 while woken.recv().await.is_ok() {
@@ -283,7 +293,7 @@ macro_rules! adapter_app {
                                         rest = r;
                                     }
                                     Fed::Message(message, r) => {
-                                        handle(cx.local.adapter, tx, cx.local.frame, &message);
+                                        handle(cx.local.adapter, cx.local.drive_ends, tx, cx.local.frame, &message);
                                         #[cfg(feature = "sim")]
                                         crate::sim_pipe::handled();
                                         rest = r;
@@ -295,7 +305,7 @@ macro_rules! adapter_app {
                         }
                         #[cfg(feature = "sim")]
                         if let Some(message) = crate::sim_pipe::take() {
-                            handle(cx.local.adapter, tx, cx.local.frame, &ToAdapter::Sim(message));
+                            handle(cx.local.adapter, cx.local.drive_ends, tx, cx.local.frame, &ToAdapter::Sim(message));
                             crate::sim_pipe::handled();
                             continue;
                         }
@@ -359,6 +369,7 @@ macro_rules! adapter_app {
 
             fn handle(
                 slot: &mut Option<&'static mut Adapter<crate::DriveApp>>,
+                drive_ends: &mut Option<crate::drive_uart::LinkEnds>,
                 tx: &mut board::Uart,
                 frame: &mut [u8; dp_link::MAX_FRAME_LEN],
                 message: &ToAdapter,
@@ -390,7 +401,7 @@ macro_rules! adapter_app {
                     start = board::timestamp();
                 }
                 if let ToAdapter::Boot { switch, nv, .. } = *message {
-                    boot(slot, switch, nv);
+                    boot(slot, drive_ends, switch, nv);
                 }
                 let Some(adapter) = slot.as_deref_mut() else {
                     warn!("link: message before Boot");
@@ -485,6 +496,7 @@ macro_rules! adapter_app {
             #[inline(never)]
             fn boot(
                 slot: &mut Option<&'static mut Adapter<crate::DriveApp>>,
+                drive_ends: &mut Option<crate::drive_uart::LinkEnds>,
                 switch: u8,
                 nv: Option<dp_link::NvRecord>,
             ) {
@@ -493,6 +505,9 @@ macro_rules! adapter_app {
                     return;
                 }
                 let adapter = crate::unpowered_adapter();
+                if let Some(ends) = drive_ends.take() {
+                    adapter.app_mut().drive_mut().master_mut().uart_mut().attach(ends);
+                }
                 adapter.power_up(switch, nv);
                 let a = adapter.addressing();
                 info!("adapter: switch {=u8}, address {=u8} from {}", switch, a.address, a.source);

@@ -169,11 +169,12 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
             2 => {
                 outputs_to_link(self);
             }
-            3 => self.drive_mut().start_next(now_us),
-            4 => self.service_pkw(now),
-            5 => self.service_dpv1(),
-            6 => sync_fieldbus_group(self),
-            7 => self.service_pzd(now),
+            3 => self.drive_mut().prepare_next(now_us),
+            4 => self.drive_mut().send(now_us),
+            5 => self.service_pkw(now),
+            6 => self.service_dpv1(),
+            7 => sync_fieldbus_group(self),
+            8 => self.service_pzd(now),
             _ => {
                 self.service_pkw(now);
                 return Step::Done(self.drive().poll_at());
@@ -302,8 +303,8 @@ fn outputs_to_link<U: Read<u8> + Write<u8>>(app: &mut DriveApp<U>) -> bool {
     true
 }
 
-/// The drive application's cycle steps that make the drive link's turn (`run_step` 0..=3).
-const DRIVE_TURN_STEPS: u8 = 4;
+/// The drive application's cycle steps that make the drive link's turn (`run_step` 0..=4).
+const DRIVE_TURN_STEPS: u8 = 5;
 
 /// The switch position that restores the factory defaults.
 pub const SWITCH_FACTORY_RESET: u8 = 99;

@@ -277,10 +277,16 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
                 Err(_) => return false,
             }
         }
-        while self.rx.len() < self.rx.capacity() && !self.answer_complete() {
+        // The answer's length is known from its function code on: judged once a byte then,
+        // not again for every byte read (the drive link's longest step read them).
+        let mut expected = self.expected_len();
+        while self.rx.len() < self.rx.capacity() && self.rx.len() < expected {
             match self.uart.read() {
                 Ok(byte) => {
                     let _ = self.rx.push(byte);
+                    if self.rx.len() == 2 {
+                        expected = self.expected_len();
+                    }
                 }
                 Err(nb::Error::WouldBlock) => break,
                 // Seed 000's 0x21, "bus noise": the UART saw the line disturbed.
@@ -330,18 +336,23 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
     }
 
     fn answer_complete(&self) -> bool {
+        self.rx.len() >= self.expected_len()
+    }
+
+    /// The length of the answer to the transaction under way, from the function code received
+    /// (an exception is shorter); none is complete without a transaction.
+    fn expected_len(&self) -> usize {
         let Some(pending) = &self.pending else {
-            return false;
+            return usize::MAX;
         };
-        let expected = match (self.rx.get(1), pending.op) {
+        match (self.rx.get(1), pending.op) {
             (Some(function), _) if function & 0x80 != 0 => EXCEPTION_LEN,
             (_, Op::Read(_)) => READ_ANSWER_LEN,
             (_, Op::Write(..)) => WRITE_ANSWER_LEN,
             (_, Op::Exchange { words, .. } | Op::ReadInputs { words }) => {
                 5 + 2 * usize::from(words)
             }
-        };
-        self.rx.len() >= expected
+        }
     }
 
     fn check_answer(&mut self) -> Result<Outcome, DriveError> {

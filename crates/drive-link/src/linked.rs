@@ -127,6 +127,8 @@ pub struct LinkedDrive<U> {
     /// When a request last went out, and when the drive last answered (any valid frame).
     last_request_us: Option<u64>,
     last_answer_us: Option<u64>,
+    /// The transaction under way was prepared and not yet sent.
+    unsent: bool,
     pub figures: LinkFigures,
 }
 
@@ -159,6 +161,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             read_at_us: None,
             last_request_us: None,
             last_answer_us: None,
+            unsent: false,
             figures: LinkFigures::new(),
         }
     }
@@ -258,8 +261,16 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
     }
 
     /// The request half of [`LinkedDrive::poll`]: starts the next transaction, if the link is
-    /// free and one is due.
+    /// free and one is due, and sends it ([`LinkedDrive::prepare_next`], then
+    /// [`LinkedDrive::send`]).
     pub fn start_next(&mut self, now_us: u64) {
+        self.prepare_next(now_us);
+        self.send(now_us);
+    }
+
+    /// The next transaction's request, built but not sent, if the link is free and one is due:
+    /// a caller that must keep each piece of work short sends it in its next.
+    pub fn prepare_next(&mut self, now_us: u64) {
         if self.job.is_some() {
             return;
         }
@@ -271,9 +282,17 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             return;
         }
         self.job = Some(job);
+        self.unsent = true;
         self.last_request_us = Some(now_us);
-        // Sends the request. One that is answered at once is finished here; the next one
-        // waits for the next poll, so a call never runs more than two transactions.
+    }
+
+    /// Sends the request [`LinkedDrive::prepare_next`] built, if one waits. One that is
+    /// answered at once is finished here; the next one waits for the next poll, so a call
+    /// never runs more than two transactions.
+    pub fn send(&mut self, now_us: u64) {
+        let Some(job) = self.job.filter(|_| core::mem::take(&mut self.unsent)) else {
+            return;
+        };
         if let Some(outcome) = self.master.poll(now_us) {
             self.job = None;
             self.finish(job, outcome, now_us);

@@ -86,17 +86,17 @@ impl Uart {
 /// The drive interrupt's work: received bytes in, queued bytes out while the FIFO takes them,
 /// the transmit interrupt on only while bytes wait. Returns whether the receive timeout came
 /// (the line idle after received bytes: the drive's answer is complete).
-pub fn drive_interrupt() -> bool {
+pub fn drive_interrupt(queues: &mut crate::drive_uart::InterruptEnds) -> bool {
     let uart = Uart { base: UART1_BASE };
     let idle = uart.read(MIS) & INT_RT != 0;
     uart.write(ICR, INT_RX_RT | INT_TX);
     while uart.read(FR) & FR_RXFE == 0 {
         let data = uart.read(DR);
-        crate::drive_uart::on_received(data as u8, data & DR_ERRORS != 0);
+        queues.on_received(data as u8, data & DR_ERRORS != 0);
     }
     let mut waiting = false;
     while uart.read(FR) & FR_TXFF == 0 {
-        match crate::drive_uart::next_to_send() {
+        match queues.next_to_send() {
             Some(byte) => uart.write(DR, u32::from(byte)),
             None => break,
         }

@@ -211,20 +211,20 @@ fn usart2() -> &'static pac::usart1::RegisterBlock {
 /// is empty (on the part, one or two: the shift register takes the first at once; under QEMU,
 /// whose TXE never clears, all of them), the TXE interrupt on only while bytes wait. Returns
 /// whether the line went idle after received bytes (the drive's answer is complete).
-pub fn drive_interrupt() -> bool {
+pub fn drive_interrupt(queues: &mut crate::drive_uart::InterruptEnds) -> bool {
     let u = usart2();
     let sr = u.sr().read().bits();
     if sr & SR_RXNE != 0 {
         // Reading SR then DR clears the error flags with RXNE, and IDLE.
         let byte = u.dr().read().bits() as u8;
-        crate::drive_uart::on_received(byte, sr & SR_ERRORS != 0);
+        queues.on_received(byte, sr & SR_ERRORS != 0);
     } else if sr & SR_IDLE != 0 {
         // SR then DR clears IDLE; DR holds nothing new.
         let _ = u.dr().read();
     }
     let mut waiting = false;
     while u.sr().read().bits() & SR_TXE != 0 {
-        let Some(byte) = crate::drive_uart::next_to_send() else {
+        let Some(byte) = queues.next_to_send() else {
             waiting = false;
             break;
         };

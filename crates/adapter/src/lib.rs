@@ -107,6 +107,14 @@ pub trait Background {
     fn outputs_turn(&mut self, _now_us: u64) -> bool {
         false
     }
+    /// A Data_Exchange's outputs came at `now_us`, changed or not: the DP cycle's beat.
+    fn data_exchange(&mut self, _now_us: u64) {}
+    /// After the decision on a Data_Exchange's outputs: background work on the drive link
+    /// that is best done right after them (a read of the in block kept clear of the next).
+    /// Returns whether a request is on its way.
+    fn after_outputs_turn(&mut self, _now_us: u64) -> bool {
+        false
+    }
     /// Bytes written to the drive UART since power-up.
     fn drive_tx_bytes(&self) -> u32 {
         0
@@ -191,12 +199,21 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
         if !self.drive().is_free() {
             return false;
         }
-        // The turn's steps 2 and 3 at once.
+        // The turn's process data and request steps at once (no read of the in block: it
+        // waits for its time).
         if !outputs_to_link(self) {
             return false;
         }
-        self.drive_mut().start_next(now_us);
+        self.drive_mut().start_for_outputs(now_us);
         !self.drive().is_free()
+    }
+
+    fn data_exchange(&mut self, now_us: u64) {
+        self.drive_mut().data_exchange(now_us);
+    }
+
+    fn after_outputs_turn(&mut self, now_us: u64) -> bool {
+        self.drive_mut().read_after_outputs(now_us)
     }
 
     fn drive_tx_bytes(&self) -> u32 {
@@ -752,6 +769,9 @@ impl<A: Application + Background> Adapter<A> {
         // (up to 1.5 Mbit/s: at least 330 µs with PPO4's 12 bytes each way, against the
         // turn's 40 µs); above, after the inputs, which the next Data_Exchange may need within
         // 140 µs at 12 Mbit/s.
+        if new_outputs {
+            self.slave.app_mut().inner.data_exchange(now_us);
+        }
         let drive_first = self.rate_told <= dp_consts::Baud::B1500000.index() as u8;
         if new_outputs && drive_first && self.slave.app_mut().inner.outputs_turn(now_us) {
             out(Out::DriveQueued);
@@ -759,6 +779,9 @@ impl<A: Application + Background> Adapter<A> {
         self.write_buffers(now, decided, parts, out);
         out(Out::DecisionWritten);
         if new_outputs && !drive_first && self.slave.app_mut().inner.outputs_turn(now_us) {
+            out(Out::DriveQueued);
+        }
+        if new_outputs && self.slave.app_mut().inner.after_outputs_turn(now_us) {
             out(Out::DriveQueued);
         }
         if !new_outputs && !acyclic {

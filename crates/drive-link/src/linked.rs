@@ -43,6 +43,9 @@ pub const REWRITE_US: u64 = 10_000;
 /// this far apart leave the line free four times in five. The price: the in block is up to
 /// this much older when a data exchange takes it.
 pub const READ_PERIOD_US: u64 = 500;
+/// How much earlier than its own length a read of the in block keeps clear of the next
+/// Data_Exchange's outputs: the DP cycle's jitter.
+pub const READ_GUARD_US: u64 = 50;
 /// How long a request or an answer keeps seed 000's TX or RX LED flashing.
 pub const LED_ACTIVITY_US: u64 = 200_000;
 
@@ -129,6 +132,13 @@ pub struct LinkedDrive<U> {
     last_answer_us: Option<u64>,
     /// The transaction under way was prepared and not yet sent.
     unsent: bool,
+    /// When the last Data_Exchange's outputs came, and the DP cycle before it (0 while
+    /// unknown): a read of the in block is not started where it would still be under way when
+    /// the next come. The durations are u32 (71 minutes) for the 8 KiB board's RAM.
+    data_exchange_us: Option<u64>,
+    dp_cycle_us: u32,
+    /// How long the last read of the in block took, from its request to its answer.
+    read_len_us: u32,
     pub figures: LinkFigures,
 }
 
@@ -162,6 +172,9 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             last_request_us: None,
             last_answer_us: None,
             unsent: false,
+            data_exchange_us: None,
+            dp_cycle_us: 0,
+            read_len_us: 0,
             figures: LinkFigures::new(),
         }
     }
@@ -196,6 +209,57 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         self.link_error
     }
 
+    /// A Data_Exchange's outputs came at `now_us` (every one, changed or not): the DP cycle
+    /// the reads of the in block keep clear of.
+    pub fn data_exchange(&mut self, now_us: u64) {
+        if let Some(last) = self.data_exchange_us {
+            self.dp_cycle_us = u32::try_from(now_us.saturating_sub(last)).unwrap_or(u32::MAX);
+        }
+        self.data_exchange_us = Some(now_us);
+    }
+
+    /// When the next read of the in block may start: [`READ_PERIOD_US`] after the last one,
+    /// but never where it would still be under way when the next Data_Exchange's outputs
+    /// come (it would hold them back by up to its length): those reads go right after the
+    /// outputs instead ([`LinkedDrive::read_after_outputs`]), or as long again after their
+    /// expected time where they do not come.
+    fn next_read_us(&self) -> u64 {
+        let periodic = self.read_at_us.map_or(0, |at| at + READ_PERIOD_US);
+        match self.before_next_outputs() {
+            Some((from, to)) if (from..to).contains(&periodic) => to + (to - from),
+            _ => periodic,
+        }
+    }
+
+    /// The span before the next Data_Exchange's outputs in which a read of the in block
+    /// would still be under way when they come: none without a DP cycle to keep clear of
+    /// (none seen yet, or too short for a read: then reads go every [`READ_PERIOD_US`]).
+    fn before_next_outputs(&self) -> Option<(u64, u64)> {
+        let last = self.data_exchange_us?;
+        let cycle = u64::from(self.dp_cycle_us);
+        let span = u64::from(self.read_len_us) + READ_GUARD_US;
+        if cycle <= span {
+            return None;
+        }
+        let next = last + cycle;
+        Some((next - span, next))
+    }
+
+    /// Right after a Data_Exchange's outputs were decided (and theirs went out): the read of
+    /// the in block that was due, or would be before the next outputs, goes now, where the DP
+    /// cycle leaves it the time. Returns whether it started.
+    pub fn read_after_outputs(&mut self, now_us: u64) -> bool {
+        if self.job.is_some() || self.words == 0 || self.before_next_outputs().is_none() {
+            return false;
+        }
+        let periodic = self.read_at_us.map_or(0, |at| at + READ_PERIOD_US);
+        if periodic > now_us && self.next_read_us() == periodic {
+            return false;
+        }
+        self.start_next(now_us);
+        self.job.is_some()
+    }
+
     /// When `poll` must run next even if no byte arrives: an answer's deadline, or the next
     /// keep-alive. `None`: only arriving bytes (or new work) move the link.
     pub fn poll_at(&self) -> Option<u64> {
@@ -210,7 +274,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             ),
             // Data exchange, the line free: the next read of the in block (new outputs come
             // with a turn of their own).
-            None => Some(self.read_at_us.map_or(0, |at| at + READ_PERIOD_US)),
+            None => Some(self.next_read_us()),
         }
     }
 
@@ -268,15 +332,31 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         self.send(now_us);
     }
 
+    /// The outputs' own turn: starts and sends the next transaction as [`LinkedDrive::start_next`]
+    /// does, but not a read of the in block, which waits for its time (see
+    /// [`LinkedDrive::poll_at`]) rather than hold up the decision on new outputs.
+    pub fn start_for_outputs(&mut self, now_us: u64) {
+        if self.job.is_some() {
+            return;
+        }
+        if let Some(job) = self.next_job(now_us, false) {
+            self.start(job, now_us);
+            self.send(now_us);
+        }
+    }
+
     /// The next transaction's request, built but not sent, if the link is free and one is due:
     /// a caller that must keep each piece of work short sends it in its next.
     pub fn prepare_next(&mut self, now_us: u64) {
         if self.job.is_some() {
             return;
         }
-        let Some(job) = self.next_job(now_us) else {
-            return;
-        };
+        if let Some(job) = self.next_job(now_us, true) {
+            self.start(job, now_us);
+        }
+    }
+
+    fn start(&mut self, job: Job, now_us: u64) {
         let op = self.op(job);
         if self.master.start(op).is_err() {
             return;
@@ -302,7 +382,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
     /// The next transaction, in this order: the mapping (what the out block means), new
     /// outputs, a parameter request (first of all while the link fails), the fieldbus group
     /// (one between two cycles), a read of the in block when one is due.
-    fn next_job(&mut self, now_us: u64) -> Option<Job> {
+    fn next_job(&mut self, now_us: u64, reads: bool) -> Option<Job> {
         // While the link fails, a request first: it gets its answer or its error in its own
         // time, where the mapping and the outputs would take every turn trying again.
         let link_down = self.link_error.is_some_and(DriveError::is_link_fault);
@@ -334,10 +414,7 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
             }
         }
         if self.words > 0 {
-            let due = self
-                .read_at_us
-                .is_none_or(|at| now_us.saturating_sub(at) >= READ_PERIOD_US);
-            if !due {
+            if !reads || now_us < self.next_read_us() {
                 return None;
             }
             self.cycle_ran = true;
@@ -489,6 +566,12 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
                         }
                     }
                 };
+                if write.is_none() {
+                    if let Some(sent) = self.last_request_us {
+                        let len = now_us.saturating_sub(sent);
+                        self.read_len_us = u32::try_from(len).unwrap_or(u32::MAX);
+                    }
+                }
                 match result {
                     Ok(Outcome::Values(values)) => {
                         written();

@@ -159,6 +159,10 @@ struct SimUart {
     noisy_reported: bool,
     /// The function code of each request served.
     functions: Vec<u8>,
+    /// Where set, the line's time: an answer is readable this long after its request was
+    /// complete (the frames on the line and the drive's processing), else at once.
+    line: Option<(std::rc::Rc<std::cell::Cell<u64>>, u64)>,
+    answer_at_us: u64,
 }
 
 impl embedded_hal_nb::serial::ErrorType for SimUart {
@@ -171,6 +175,9 @@ impl embedded_hal_nb::serial::Write<u8> for SimUart {
         if drive_sim::request_len(&self.written) == Some(self.written.len()) {
             let request = std::mem::take(&mut self.written);
             self.functions.push(request[1]);
+            if let Some((clock, transaction_us)) = &self.line {
+                self.answer_at_us = clock.get() + transaction_us;
+            }
             if let Some(answer) = self.drive.modbus(&request) {
                 self.to_read.extend(answer);
             }
@@ -193,6 +200,11 @@ impl embedded_hal_nb::serial::Read<u8> for SimUart {
             self.noisy_reported = true;
             return Err(nb::Error::Other(embedded_hal_nb::serial::ErrorKind::Noise));
         }
+        if let Some((clock, _)) = &self.line {
+            if clock.get() < self.answer_at_us {
+                return Err(nb::Error::WouldBlock);
+            }
+        }
         let byte = self.to_read.pop_front().ok_or(nb::Error::WouldBlock);
         if self.to_read.is_empty() {
             self.noisy_reported = false;
@@ -209,6 +221,8 @@ fn the_drive_simulator_over_modbus() {
         to_read: VecDeque::new(),
         noisy_reported: false,
         functions: Vec::new(),
+        line: None,
+        answer_at_us: 0,
     };
     let clock = std::cell::Cell::new(0u64);
     let mut drive = BlockingDrive::new(
@@ -266,6 +280,8 @@ fn sim_uart() -> SimUart {
         to_read: VecDeque::new(),
         noisy_reported: false,
         functions: Vec::new(),
+        line: None,
+        answer_at_us: 0,
     }
 }
 
@@ -409,6 +425,55 @@ mod linked {
         let served = functions(&mut app);
         let exchanges = served.iter().filter(|f| **f == 0x17).count();
         assert!((1..=2).contains(&exchanges), "{served:x?}");
+    }
+
+    /// Data_Exchanges every `cycle_us` for 20 ms on a line whose transactions take 200 µs,
+    /// the link polled every 10 µs in between (as its wake-ups and the drive's answers do);
+    /// `beat`: the link is told of each (`data_exchange`, then `read_after_outputs`). Returns
+    /// how many found a transaction under way (after the first four), and how many reads of
+    /// the in block ran.
+    fn exchanges_meeting_a_read(cycle_us: u64, beat: bool) -> (usize, u32) {
+        let mut app = app(Ppo::Ppo1);
+        let clock = std::rc::Rc::new(std::cell::Cell::new(0u64));
+        app.drive_mut().master_mut().uart_mut().line = Some((clock.clone(), 200));
+        let mut now = 1_000;
+        // The mapping and the fieldbus group's load at link-up first.
+        exchange(&mut app, &mut now, [0; 8], START, 2500, 500);
+        let cycles_before = app.drive().figures.cycles;
+        let mut met = 0;
+        for n in 0..20_000 / 10 {
+            let at = now + n * 10;
+            clock.set(at);
+            if n % (cycle_us / 10) == 0 {
+                // The first ones teach the link the DP cycle and a read's length.
+                let learnt = n / (cycle_us / 10) >= 4;
+                met += usize::from(learnt && !app.drive().is_free());
+                if beat {
+                    app.drive_mut().data_exchange(at);
+                    app.drive_mut().read_after_outputs(at);
+                }
+            }
+            app.drive_mut().poll(at);
+        }
+        (met, app.drive().figures.cycles - cycles_before)
+    }
+
+    #[test]
+    fn reads_of_the_in_block_keep_clear_of_the_next_outputs() {
+        // A 630 µs DP cycle (PPO4 at 1.5 Mbit/s), reads every 500 µs: without the beat, reads
+        // run into the outputs of a Data_Exchange now and then.
+        let (met, reads) = exchanges_meeting_a_read(630, false);
+        assert!(met >= 10 && reads >= 38, "{met} met, {reads} reads");
+        // With it, none does once the DP cycle and a read's length are known, and the in
+        // block is still read at least once a DP cycle.
+        let (met, reads) = exchanges_meeting_a_read(630, true);
+        assert!(
+            met == 0 && reads >= 20_000 / 630,
+            "{met} met, {reads} reads"
+        );
+        // A DP cycle too short to keep a read clear of (200 µs): reads every 500 µs as before.
+        let (_, reads) = exchanges_meeting_a_read(200, true);
+        assert!((38..=40).contains(&reads), "{reads} reads");
     }
 
     #[test]

@@ -985,20 +985,15 @@ pub fn latency<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::
             to_drive.len() == 20 && to_master.len() == 20 && parts.len() == 20,
         );
         let (words, target) = SEED_000_LATENCY[ppo.number() as usize - 1];
-        // The worst must be within a fifth of seed 000's figure. Not yet for PPO4 (issue 29
-        // is open for it): with a read of the in block on the drive link when new outputs
-        // come, its floor is about 370 µs before any step the MCU is in (README "Figures"),
-        // and its worst runs 384-444 µs.
-        if ppo != Ppo::Ppo4 {
-            c.check(
-                format!(
-                    "PPO{}: out->drive worst {} us within a fifth of seed 000's {words} ({target} us)",
-                    ppo.number(),
-                    worst(&to_drive)
-                ),
-                worst(&to_drive) <= target,
-            );
-        }
+        // The worst must be within a fifth of seed 000's figure.
+        c.check(
+            format!(
+                "PPO{}: out->drive worst {} us within a fifth of seed 000's {words} ({target} us)",
+                ppo.number(),
+                worst(&to_drive)
+            ),
+            worst(&to_drive) <= target,
+        );
         let verdict = |value: u64, bound: u64| if value <= bound { "met" } else { "OVER" };
         report.push(format!(
             "  target: worst {} us <= {target} ({}), median {} us <= {} ({})",

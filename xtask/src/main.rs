@@ -14,6 +14,8 @@
 //!   image onto a board through a debug probe (probe-rs, in `flash/`).
 //! - `dist`: the release bundle for a production line under `target/dist/<version>/`.
 //! - `clippy-firmware`: clippy, warnings denied, on the firmware of every board in the table.
+//! - `rtl-check [--quick]`: the gateware's blocks against the transceiver model, clock for
+//!   clock, under Verilator.
 
 mod baud_sweep;
 mod dist;
@@ -24,6 +26,7 @@ mod phy_bench;
 mod pty_check;
 mod qemu_run;
 mod qemu_test;
+mod rtl_check;
 
 use anyhow::{bail, Result};
 use std::path::PathBuf;
@@ -39,7 +42,7 @@ fn try_main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some((task, rest)) = args.split_first() else {
         bail!(
-            "usage: cargo xtask <qemu-test|qemu-run|flash|dist|clippy-firmware|baud-sweep|phy-bench|dp-cycle|gsd> [options]"
+            "usage: cargo xtask <qemu-test|qemu-run|flash|dist|clippy-firmware|baud-sweep|phy-bench|dp-cycle|gsd|rtl-check> [options]"
         );
     };
     match task.as_str() {
@@ -52,9 +55,10 @@ fn try_main() -> Result<()> {
         "flash" => flash::run(rest),
         "dist" => dist::run(rest),
         "clippy-firmware" => qemu_test::clippy_firmware(rest),
+        "rtl-check" => rtl_check::run(rest),
         other => bail!(
             "unknown task `{other}`: qemu-test, qemu-run, flash, dist, clippy-firmware, \
-             baud-sweep, phy-bench, dp-cycle or gsd"
+             baud-sweep, phy-bench, dp-cycle, gsd or rtl-check"
         ),
     }
 }

@@ -635,7 +635,13 @@ fn find_in_path(program: &str) -> Option<PathBuf> {
 }
 
 pub(crate) fn ensure_qemu() -> Result<PathBuf> {
-    if let Some(path) = find_in_path("qemu-system-arm") {
+    ensure_debian_tool("qemu-system-arm", "qemu-system-arm")
+}
+
+/// `program` on PATH, or Debian's `package` installed for it through apt-get when run as root
+/// (else an error that says which command to run).
+pub(crate) fn ensure_debian_tool(program: &str, package: &str) -> Result<PathBuf> {
+    if let Some(path) = find_in_path(program) {
         return Ok(path);
     }
     let uid = Command::new("id")
@@ -643,11 +649,9 @@ pub(crate) fn ensure_qemu() -> Result<PathBuf> {
         .output()
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
     if uid.as_deref().ok() != Some("0") {
-        bail!("qemu-system-arm is not installed; install it with `sudo apt-get install -y qemu-system-arm`");
+        bail!("{program} is not installed; install it with `sudo apt-get install -y {package}`");
     }
-    println!(
-        "installing qemu-system-arm: apt-get install -y --no-install-recommends qemu-system-arm"
-    );
+    println!("installing {program}: apt-get install -y --no-install-recommends {package}");
     let apt = |args: &[&str]| -> Result<()> {
         let status = Command::new("apt-get")
             .args(args)
@@ -660,15 +664,8 @@ pub(crate) fn ensure_qemu() -> Result<PathBuf> {
         Ok(())
     };
     apt(&["update", "-q"])?;
-    apt(&[
-        "install",
-        "-y",
-        "-q",
-        "--no-install-recommends",
-        "qemu-system-arm",
-    ])?;
-    find_in_path("qemu-system-arm")
-        .ok_or_else(|| anyhow!("qemu-system-arm still not on PATH after apt-get"))
+    apt(&["install", "-y", "-q", "--no-install-recommends", package])?;
+    find_in_path(program).ok_or_else(|| anyhow!("{program} still not on PATH after apt-get"))
 }
 
 /// Builds an image (release) in a target directory of its own name, with the version from

@@ -1,0 +1,75 @@
+// What every block's Verilator harness shares: the stimulus it reads and the outputs it writes,
+// both files of little-endian records. The Rust side (crates/rtl-check) writes the stimulus,
+// runs the Rust model on the same, and judges: the harness only clocks the RTL.
+//
+// Outputs are run-length coded: a record (u8 outputs, u32 clocks) for each run of clocks whose
+// outputs are the same, so a character at 9.6 kbit/s (55,000 clocks) is a handful of records.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+
+namespace harness {
+
+inline void fail(const char* what) {
+  std::fprintf(stderr, "harness: %s\n", what);
+  std::exit(2);
+}
+
+class Stimulus {
+ public:
+  explicit Stimulus(const char* path) : f_(std::fopen(path, "rb")) {
+    if (!f_) fail("cannot open the stimulus");
+  }
+  ~Stimulus() { std::fclose(f_); }
+  // The next record's op, or -1 at the end.
+  int op() { return std::fgetc(f_); }
+  uint8_t u8() {
+    int c = std::fgetc(f_);
+    if (c < 0) fail("stimulus ends inside a record");
+    return static_cast<uint8_t>(c);
+  }
+  uint32_t u32() {
+    uint32_t v = 0;
+    for (int i = 0; i < 4; i++) v |= static_cast<uint32_t>(u8()) << (8 * i);
+    return v;
+  }
+
+ private:
+  std::FILE* f_;
+};
+
+class Outputs {
+ public:
+  explicit Outputs(const char* path) : f_(std::fopen(path, "wb")) {
+    if (!f_) fail("cannot open the outputs");
+  }
+  ~Outputs() {
+    flush();
+    std::fclose(f_);
+  }
+  // This clock's outputs.
+  void clock(uint8_t value) {
+    if (count_ > 0 && value == value_) {
+      count_++;
+      return;
+    }
+    flush();
+    value_ = value;
+    count_ = 1;
+  }
+
+ private:
+  void flush() {
+    if (count_ == 0) return;
+    std::fputc(value_, f_);
+    for (int i = 0; i < 4; i++) std::fputc((count_ >> (8 * i)) & 0xFF, f_);
+    count_ = 0;
+  }
+  std::FILE* f_;
+  uint8_t value_ = 0;
+  uint32_t count_ = 0;
+};
+
+}  // namespace harness

@@ -1,0 +1,101 @@
+//! `cargo xtask rtl-check [--quick]`: the gateware's blocks against their Rust twins in dp-phy,
+//! clock for clock (crates/rtl-check).
+//!
+//! First it proves that it can fail: the transmitter built one clock late (`LateByOne`) must
+//! differ from the model at the first start bit's clock, on `tx`. Then every block ported so far
+//! runs its cases; a mismatch prints the first differing clock, signal and both values and
+//! writes `target/rtl/<case>.vcd` with both sides. Installs verilator through apt-get as root
+//! where it is missing. The last line: `rtl-check: cases=N clocks=M mismatches=K`.
+
+use crate::{check_flags, project_root, qemu_test::ensure_debian_tool};
+use anyhow::{bail, Context, Result};
+use rtl_check::{blocks, first_mismatch, verilator, write_vcd, Block, Case};
+use std::path::Path;
+
+pub fn run(args: &[String]) -> Result<()> {
+    check_flags(args, &["--quick"], &[])?;
+    let quick = args.iter().any(|a| a == "--quick");
+    ensure_debian_tool("verilator", "verilator")?;
+    let root = project_root();
+    let gateware = root.join("gateware");
+    let out = root.join("target/rtl");
+    std::fs::create_dir_all(&out)?;
+
+    // The checker must be able to fail: a transmitter one clock late.
+    let late = blocks::uart_tx(true);
+    let binary = build(&late, &gateware, &out)?;
+    let case = &blocks::uart_tx_cases(true)[9];
+    let rtl = verilator::run(&binary, case, &out.join("work"))?;
+    // The case opens with 5 idle clocks, then the buffer's clock: the start bit is clock 6.
+    match first_mismatch(&case.model, &rtl, late.signals) {
+        Some(m) if m.clock == 6 && m.signal == "tx" => {
+            println!("rtl-check: the checker finds a transmitter built one clock late: {m}")
+        }
+        other => bail!("a transmitter one clock late was not found where it must be: {other:?}"),
+    }
+
+    let runs: Vec<(Block, Vec<Case>)> = vec![
+        (blocks::line_sync(0), blocks::line_sync_cases(0, quick)),
+        (blocks::line_sync(3), blocks::line_sync_cases(3, quick)),
+        (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
+    ];
+    let (mut cases, mut clocks, mut mismatches) = (0usize, 0u64, 0usize);
+    for (block, block_cases) in &runs {
+        let binary = build(block, &gateware, &out)?;
+        let mut block_clocks = 0;
+        let mut block_mismatches = 0;
+        for case in block_cases {
+            let rtl = verilator::run(&binary, case, &out.join("work"))?;
+            block_clocks += case.model.clocks();
+            if let Some(m) = first_mismatch(&case.model, &rtl, block.signals) {
+                block_mismatches += 1;
+                let vcd = out.join(format!("{}.vcd", case.name));
+                write_vcd(
+                    &vcd,
+                    block.signals,
+                    &case.model,
+                    &rtl,
+                    u64::from(dp_phy::timing::DEFAULT_CLOCK_HZ),
+                )?;
+                println!(
+                    "  MISMATCH {} ({} against {}): {m}; both sides in {}",
+                    case.name,
+                    block.build_name(),
+                    block.twin,
+                    vcd.display()
+                );
+            }
+        }
+        println!(
+            "  {:<24} against {:<22} cases {:>3}  clocks {:>11}  mismatches {}",
+            block.build_name(),
+            block.twin,
+            block_cases.len(),
+            block_clocks,
+            block_mismatches
+        );
+        cases += block_cases.len();
+        clocks += block_clocks;
+        mismatches += block_mismatches;
+    }
+    let (done, left): (Vec<_>, Vec<_>) = blocks::TRANSCEIVER_BLOCKS
+        .iter()
+        .partition(|(_, ported)| *ported);
+    println!(
+        "rtl-check: blocks ported {} of {} ({}); not yet: {}",
+        done.len(),
+        blocks::TRANSCEIVER_BLOCKS.len(),
+        done.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+        left.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+    );
+    println!("rtl-check: cases={cases} clocks={clocks} mismatches={mismatches}");
+    if mismatches > 0 {
+        bail!("{mismatches} case(s) differ from the model");
+    }
+    Ok(())
+}
+
+fn build(block: &Block, gateware: &Path, out: &Path) -> Result<std::path::PathBuf> {
+    verilator::build(block, gateware, out)
+        .with_context(|| format!("building {}", block.build_name()))
+}

@@ -42,8 +42,8 @@ pub enum FailSafeCause {
 }
 
 pub use crate::link_diag::{
-    EXT_DIAG_DRIVE_FAULT, EXT_DIAG_LEN, EXT_DIAG_LINK_LOST_PERMANENTLY,
-    EXT_DIAG_LINK_LOST_TEMPORARILY, LINK_LOST_PERMANENTLY_US,
+    DPV1_STATUS_BLOCK_LEN, DPV1_STATUS_TYPE, EXT_DIAG_DRIVE_FAULT, EXT_DIAG_LEN,
+    EXT_DIAG_LINK_LOST_PERMANENTLY, EXT_DIAG_LINK_LOST_TEMPORARILY, LINK_LOST_PERMANENTLY_US,
 };
 
 pub struct ProfidriveApp<D> {
@@ -584,7 +584,7 @@ impl<D: Drive> Application for ProfidriveApp<D> {
     }
 
     fn ext_diag(&mut self, buffer: &mut [u8]) -> usize {
-        self.link_diag.write(buffer)
+        self.link_diag.write(buffer, self.dp_mode_dpv1)
     }
 
     fn ext_diag_reported(&self) -> bool {
@@ -768,6 +768,33 @@ mod tests {
         // A single bad answer is reported with its own code.
         app.drive_mut().fail_next = Some(DriveError::CrcError);
         assert_eq!(exchange(&mut app, 1030, &ppo3(START, 5000))[0], 0xC023);
+    }
+
+    /// Seed 004 lines 1098-1113: with 51.21 = 1 (DP-V1) the extended diagnosis is a status
+    /// block, header (5), status type 81h, slot 0, specifier 0, and the communication flags at
+    /// byte 10 of Slave_Diag; with 51.21 = 0 the DP-V0 form stays (header 2, flags at byte 7).
+    #[test]
+    fn seed_004_lines_1098_1113_dpv1_diagnosis_is_a_status_block() {
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        app.set_dp_mode_dpv1(true);
+        let mut diag = [0u8; 16];
+        exchange(&mut app, 0, &ppo3(START, 5000));
+        assert_eq!(app.ext_diag(&mut diag), 5);
+        assert_eq!(diag[..5], [5, 0x81, 0x00, 0x00, 0x00]);
+        app.drive_mut().disconnected = true;
+        exchange(&mut app, 10, &ppo3(START, 5000));
+        assert_eq!(app.ext_diag(&mut diag), 5);
+        assert_eq!(
+            diag[..5],
+            [5, 0x81, 0x00, 0x00, EXT_DIAG_LINK_LOST_TEMPORARILY]
+        );
+        assert!(app.ext_diag_reported());
+        app.set_dp_mode_dpv1(false);
+        assert_eq!(app.ext_diag(&mut diag), 2);
+        assert_eq!(diag[..2], [2, EXT_DIAG_LINK_LOST_TEMPORARILY]);
+        // A buffer without room for the block gets nothing rather than half of it.
+        app.set_dp_mode_dpv1(true);
+        assert_eq!(app.ext_diag(&mut diag[..4]), 0);
     }
 
     /// Issue 18, seed 000 line 465 and seed 004 lines 725-745: in the PROFIdrive mode a lost

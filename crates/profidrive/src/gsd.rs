@@ -248,10 +248,16 @@ pub fn write_variant(out: &mut impl Write, variant: Variant) -> fmt::Result {
     line(out, "Max_Data_Len", &(2 * max_io))?;
     // The first module at slot 1, as ABB_0812.gsd numbers it.
     line(out, "Modul_Offset", &1)?;
+    // DP-V1's extended diagnosis is a status block (seed 004 lines 1098-1113), DP-V0's a
+    // header and the flags.
+    let ext_diag_len = match variant {
+        Variant::DpV1 => crate::app::DPV1_STATUS_BLOCK_LEN,
+        Variant::DpV0 => crate::app::EXT_DIAG_LEN,
+    };
     line(
         out,
         "Max_Diag_Data_Len",
-        &(dp_consts::diag::STANDARD_LEN + crate::app::EXT_DIAG_LEN as usize),
+        &(dp_consts::diag::STANDARD_LEN + ext_diag_len as usize),
     )?;
     line(out, "Slave_Family", &1)?;
     let (defaults, user_prm_len) = variant.default_user_prm();
@@ -274,17 +280,29 @@ pub fn write_variant(out: &mut impl Write, variant: Variant) -> fmt::Result {
         line(out, "Manufacturer_Specific_Alarm_supp", &0)?;
     }
     writeln!(out)?;
+    // The flags' bits counted from the byte after the header: the first (DP-V0), or after the
+    // status block's type, slot and specifier (DP-V1).
+    let flags_bit = match variant {
+        Variant::DpV1 => 24,
+        Variant::DpV0 => 0,
+    };
     writeln!(
         out,
-        "Unit_Diag_Bit(0)      = \"Drive link temporarily lost\""
+        "Unit_Diag_Bit({})      = \"Drive link temporarily lost\"",
+        flags_bit
     )?;
     writeln!(
         out,
-        "Unit_Diag_Bit(1)      = \"Drive link permanently lost\""
+        "Unit_Diag_Bit({})      = \"Drive link permanently lost\"",
+        flags_bit + 1
     )?;
     // Seed 004 leaves bits 2-7 unused; this adapter reports the drive's fault in bit 2, so its
     // GSD says so.
-    writeln!(out, "Unit_Diag_Bit(2)      = \"Drive fault\"")?;
+    writeln!(
+        out,
+        "Unit_Diag_Bit({})      = \"Drive fault\"",
+        flags_bit + 2
+    )?;
     writeln!(out)?;
     let texts: [(u8, &[&str]); 3] = [
         (1, &["Stop", "Last speed", "Use fail-safe values"]),

@@ -1,6 +1,9 @@
-//! Seed 004's extended diagnosis: one header byte (its length, 2) and one byte of flags, the
-//! drive link lost temporarily or (after [`LINK_LOST_PERMANENTLY_US`]) permanently, and the
-//! drive's fault (bit 2, this adapter's own, declared in the GSD).
+//! Seed 004's extended diagnosis: the drive link lost temporarily or (after
+//! [`LINK_LOST_PERMANENTLY_US`]) permanently, and the drive's fault (bit 2, this adapter's own,
+//! declared in the GSD), in one byte of flags. In DP-V0 (51.21 = 0) they follow one header
+//! byte, its length, 2 (seed 004 line 731); in DP-V1 (51.21 = 1) they close a status block
+//! (lines 1098-1113): header (its length, 5), status type 81h (a status message), slot 0,
+//! specifier 0, the flags at byte 10 of the diagnosis.
 
 use crate::drive::DriveError;
 use dp_slave::Instant;
@@ -10,6 +13,10 @@ use dp_slave::Instant;
 pub const LINK_LOST_PERMANENTLY_US: u64 = 1_000_000;
 
 pub const EXT_DIAG_LEN: u8 = 2;
+/// The DP-V1 status block's length, header included.
+pub const DPV1_STATUS_BLOCK_LEN: u8 = 5;
+/// Its status type: bit 7 a status block, type 1 a status message.
+pub const DPV1_STATUS_TYPE: u8 = 0x81;
 pub const EXT_DIAG_LINK_LOST_TEMPORARILY: u8 = 0x01;
 pub const EXT_DIAG_LINK_LOST_PERMANENTLY: u8 = 0x02;
 /// The drive reports a fault (its status word's fault bit): the master learns of it from the
@@ -93,15 +100,22 @@ impl LinkDiagnosis {
         }
     }
 
-    /// The extended diagnosis into `buffer`: its length, always 2 (seed 004 line 731: "Fixed
-    /// to 2"), the flags 0 while all is well.
-    pub fn write(&self, buffer: &mut [u8]) -> usize {
-        if buffer.len() < 2 {
-            return 0;
+    /// The extended diagnosis into `buffer`, in DP-V1's status block (`dpv1`) or DP-V0's form;
+    /// returns its length, always the same for a mode (seed 004 line 731: "Fixed to 2"), the
+    /// flags 0 while all is well.
+    pub fn write(&self, buffer: &mut [u8], dpv1: bool) -> usize {
+        let block: &[u8] = if dpv1 {
+            &[DPV1_STATUS_BLOCK_LEN, DPV1_STATUS_TYPE, 0, 0, self.flags]
+        } else {
+            &[EXT_DIAG_LEN, self.flags]
+        };
+        match buffer.get_mut(..block.len()) {
+            Some(room) => {
+                room.copy_from_slice(block);
+                block.len()
+            }
+            None => 0,
         }
-        buffer[0] = EXT_DIAG_LEN;
-        buffer[1] = self.flags;
-        2
     }
 
     /// Whether a flag is set (Station_Status_1's Ext_Diag).

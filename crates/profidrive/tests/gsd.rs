@@ -277,3 +277,58 @@ fn every_value_a_tool_can_pick_is_taken_by_set_prm() {
         6000
     );
 }
+
+/// Seed 004 lines 1098-1113: in DP-V1 mode the extended diagnosis is a status block, so the
+/// DP-V1 file declares its length (6 + 5) and names the flags where they are, at byte 10 of
+/// Slave_Diag: a tool that reads the adapter's own diagnosis with the file's Unit_Diag_Bit
+/// texts finds "Drive link temporarily lost" there. The DP-V0 file keeps 6 + 2, flags at byte 7.
+#[test]
+fn seed_004_lines_1098_1113_each_file_names_the_flags_where_its_diagnosis_has_them() {
+    use profidrive::gsd::{write_variant, Variant, FILE_NAME, FILE_NAME_DPV1};
+    for (variant, name, dpv1, len) in [
+        (Variant::DpV0, FILE_NAME, false, 8),
+        (Variant::DpV1, FILE_NAME_DPV1, true, 11),
+    ] {
+        let mut text = String::new();
+        write_variant(&mut text, variant).unwrap();
+        let gsd = gsd_parser::parser::parse(std::path::Path::new(name), &text)
+            .unwrap_or_else(|e| panic!("{e}\n{text}"));
+        assert_eq!(usize::from(gsd.max_diag_data_length), len, "{name}");
+        // The adapter's own extended diagnosis with the drive link lost.
+        let mut app = ProfidriveApp::new(MockDrive::default());
+        assert!(app.accept_user_prm(&UserPrm::DEFAULT.encode()), "{name}");
+        assert!(app.accept_cfg(Ppo::Ppo3.cfg()).is_some());
+        // 51.21: the diagnosis takes the mode's form at once.
+        app.set_dp_mode_dpv1(dpv1);
+        let mut outputs = vec![0u8; Ppo::Ppo3.io_bytes()];
+        outputs[..2].copy_from_slice(&0x047Fu16.to_be_bytes());
+        // The flags the file's texts find in the adapter's diagnosis: none with the drive
+        // link up, "temporarily lost" without it.
+        let flags_named = |app: &mut ProfidriveApp<MockDrive>, at: u64| {
+            app.outputs(dp_slave::Instant::from_micros(at), &outputs);
+            app.service(dp_slave::Instant::from_micros(at + 10));
+            let mut diag = [0u8; 32];
+            let ext = app.ext_diag(&mut diag);
+            assert_eq!(6 + ext, len, "{name}: {:02X?}", &diag[..ext]);
+            // Unit_Diag_Bit counts from the byte after the header.
+            gsd.unit_diag
+                .bits
+                .iter()
+                .filter(|(bit, _)| {
+                    let byte = 1 + (**bit / 8) as usize;
+                    diag[..ext]
+                        .get(byte)
+                        .is_some_and(|b| b >> (**bit % 8) & 1 == 1)
+                })
+                .map(|(_, info)| info.text.clone())
+                .collect::<Vec<String>>()
+        };
+        assert!(flags_named(&mut app, 0).is_empty(), "{name}");
+        app.drive_mut().disconnected = true;
+        assert_eq!(
+            flags_named(&mut app, 100),
+            ["Drive link temporarily lost"],
+            "{name}"
+        );
+    }
+}

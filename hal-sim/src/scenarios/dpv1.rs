@@ -7,7 +7,7 @@
 //! DP-V1. Every request goes through `msac1_master` (profirust's FDL station), and every
 //! check reads what the master received or what the drive simulator holds.
 
-use super::support::{Checks, Report, SWITCH_ADDRESS};
+use super::support::{diag_flags, link_flags, wait_ext_diag, Checks, Report, SWITCH_ADDRESS};
 use crate::cosim::{echo_user_prm, CoSim, MasterSetup, Program};
 use crate::firmware::Firmware;
 use crate::msac1_master::{Done, Job, Msac1Requester};
@@ -19,6 +19,7 @@ use profidrive::pd_access::{
     build_request, Attribute, Format, ParamAddress, ParamResponsePdu, RequestId, Values, MAX_LEN,
 };
 use profidrive::ppo::Ppo;
+use profirust::dp::DiagnosticFlags;
 use std::io;
 
 const TICKS_PER_US: u64 = (crate::cosim::CLOCK_HZ / 1_000_000) as u64;
@@ -374,7 +375,39 @@ pub fn profidrive<F: Firmware>(
         x.error(0) == Some(0x6F),
     );
     expected_errors += 1;
+    // Seed 004 lines 1098-1113: in DP-V1 mode Slave_Diag carries the status block, the
+    // communication flags at its byte 10.
+    let lost = profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY;
+    let diag = wait_ext_diag(sim, 50_000, |d| {
+        link_flags(d).is_some_and(|f| f & lost != 0)
+    })?;
+    c.check(
+        format!(
+            "unplugged: Slave_Diag bytes 6-10 are the status block 05 81 00 00, the link lost at byte 10 ({diag:02X?})"
+        ),
+        diag.len() == 5 && diag[..4] == [0x05, 0x81, 0x00, 0x00] && diag[4] & lost != 0,
+    );
     sim.drive_now().link_fault = LinkFault::None;
+    // Back: the diagnosis no longer reports (no Ext_Diag; profirust keeps the last extended
+    // diagnosis it read with Ext_Diag, so the block is read from the transceiver, which
+    // answers Slave_Diag with it).
+    let end = sim.now + 100_000 * TICKS_PER_US;
+    let cleared = sim.run_until(end, |s| {
+        s.bridge.responder.q().diag.as_slice().get(6..) == Some(&[0x05, 0x81, 0x00, 0x00, 0x00])
+    })?;
+    let diag = sim.bridge.responder.q().diag.as_slice().to_vec();
+    c.check(
+        format!("plugged back: Slave_Diag's status block has its flags clear ({diag:02X?})"),
+        cleared,
+    );
+    let end = sim.now + 100_000 * TICKS_PER_US;
+    let read = sim.run_until(end, |s| {
+        diag_flags(s).is_some_and(|f| !f.contains(DiagnosticFlags::EXT_DIAG))
+    })?;
+    c.check(
+        "plugged back: the master read a diagnosis without Ext_Diag",
+        read,
+    );
     sim.run_for_us(100_000)?;
     program(sim, Program::EchoThroughDrive);
     sim.run_for_us(100_000)?;

@@ -89,16 +89,12 @@ fn wait<F: Firmware>(
     })
 }
 
-/// Runs until the extended diagnosis the master read has `flag` set, at most `limit_us`.
+/// Runs until the drive link's flags in the extended diagnosis the master read have `flag`
+/// set, at most `limit_us`.
 fn wait_diag<F: Firmware>(sim: &mut CoSim<F>, limit_us: u64, flag: u8) -> io::Result<Vec<u8>> {
-    let end = sim.now_us() + limit_us;
-    loop {
-        let diag = super::support::ext_diag(sim);
-        if diag.get(1).is_some_and(|f| f & flag != 0) || sim.now_us() >= end {
-            return Ok(diag);
-        }
-        sim.run_for_us(1_000)?;
-    }
+    super::support::wait_ext_diag(sim, limit_us, |d| {
+        super::support::link_flags(d).is_some_and(|f| f & flag != 0)
+    })
 }
 
 /// Sends one parameter request (the PKW words) with the PZD words `pzd`, first clearing the
@@ -248,7 +244,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
     c.check(
         format!("the diagnosis shows the drive fault ({diag:02X?})"),
-        diag.get(1)
+        super::support::link_flags(&diag)
             .is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0),
     );
     out[4] = START | control::FAULT_RESET;
@@ -267,7 +263,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY)?;
     c.check(
         format!("the diagnosis: drive link lost ({diag:02X?})"),
-        diag.get(1)
+        super::support::link_flags(&diag)
             .is_some_and(|f| f & profidrive::app::EXT_DIAG_LINK_LOST_TEMPORARILY != 0),
     );
     let end = sim.now + LED_ACTIVITY_US * TICKS_PER_US * 3 / 2;
@@ -500,7 +496,7 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> i
     let diag = wait_diag(sim, 50_000, profidrive::app::EXT_DIAG_DRIVE_FAULT)?;
     c.check(
         format!("the diagnosis shows the drive fault ({diag:02X?})"),
-        diag.get(1)
+        super::support::link_flags(&diag)
             .is_some_and(|f| f & profidrive::app::EXT_DIAG_DRIVE_FAULT != 0),
     );
     out[4] = pd::READY | pd::RESET;

@@ -72,6 +72,35 @@ pub fn ext_diag<F: Firmware>(sim: &mut CoSim<F>) -> Vec<u8> {
         .unwrap_or_default()
 }
 
+/// The drive link's flags in an extended diagnosis: after the header in DP-V0's form (header
+/// 2), or closing DP-V1's status block (header 5, status type 81h, slot 0, specifier 0; seed
+/// 004 lines 1098-1113). None for anything else.
+pub fn link_flags(ext: &[u8]) -> Option<u8> {
+    use profidrive::app::{DPV1_STATUS_BLOCK_LEN, DPV1_STATUS_TYPE, EXT_DIAG_LEN};
+    match *ext {
+        [EXT_DIAG_LEN, flags] => Some(flags),
+        [DPV1_STATUS_BLOCK_LEN, DPV1_STATUS_TYPE, 0, 0, flags] => Some(flags),
+        _ => None,
+    }
+}
+
+/// Runs until the extended diagnosis the master read satisfies `done`, at most `limit_us`;
+/// returns the last one read.
+pub fn wait_ext_diag<F: Firmware>(
+    sim: &mut CoSim<F>,
+    limit_us: u64,
+    done: impl Fn(&[u8]) -> bool,
+) -> io::Result<Vec<u8>> {
+    let end = sim.now_us() + limit_us;
+    loop {
+        let diag = ext_diag(sim);
+        if done(&diag) || sim.now_us() >= end {
+            return Ok(diag);
+        }
+        sim.run_for_us(1_000)?;
+    }
+}
+
 /// The DP-V0 services profirust does not send, each from a commissioning tool (station 3, a
 /// second master) after data exchange at `baud`: each must be answered, and as the slave
 /// decides in that state (the responder's answers against the firmware's are proven bit for

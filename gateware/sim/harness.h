@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <vector>
 
 namespace harness {
 
@@ -70,6 +71,28 @@ class Outputs {
   std::FILE* f_;
   uint8_t value_ = 0;
   uint32_t count_ = 0;
+};
+
+// What a block delivers beside its per-clock outputs (a telegram with its bytes, say): records
+// of u32 clock, u16 payload length, payload, compared one by one by the Rust side.
+class Events {
+ public:
+  explicit Events(const char* path) : f_(std::fopen(path, "wb")) {
+    if (!f_) fail("cannot open the events");
+  }
+  ~Events() { std::fclose(f_); }
+  void record(uint32_t clock, const std::vector<uint8_t>& payload) {
+    put32(clock);
+    std::fputc(payload.size() & 0xFF, f_);
+    std::fputc((payload.size() >> 8) & 0xFF, f_);
+    std::fwrite(payload.data(), 1, payload.size(), f_);
+  }
+
+ private:
+  void put32(uint32_t v) {
+    for (int i = 0; i < 4; i++) std::fputc((v >> (8 * i)) & 0xFF, f_);
+  }
+  std::FILE* f_;
 };
 
 }  // namespace harness

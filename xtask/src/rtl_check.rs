@@ -4,12 +4,14 @@
 //! First it proves that it can fail: the transmitter built one clock late (`LateByOne`) must
 //! differ from the model at the first start bit's clock, on `tx`. Then every block ported so far
 //! runs its cases; a mismatch prints the first differing clock, signal and both values and
-//! writes `target/rtl/<case>.vcd` with both sides. Installs verilator through apt-get as root
+//! writes `target/rtl/<case>.vcd` with both sides; where the outputs agree clock for clock, what
+//! a block delivers besides (the delimiter's telegrams: status, length, end tick, bytes) is
+//! compared delivery by delivery. Installs verilator through apt-get as root
 //! where it is missing. The last line: `rtl-check: cases=N clocks=M mismatches=K`.
 
 use crate::{check_flags, project_root, qemu_test::ensure_debian_tool};
 use anyhow::{bail, Context, Result};
-use rtl_check::{blocks, first_mismatch, verilator, write_vcd, Block, Case};
+use rtl_check::{blocks, first_event_mismatch, first_mismatch, verilator, write_vcd, Block, Case};
 use std::path::Path;
 
 pub fn run(args: &[String]) -> Result<()> {
@@ -25,7 +27,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let late = blocks::uart_tx(true);
     let binary = build(&late, &gateware, &out)?;
     let case = &blocks::uart_tx_cases(true)[9];
-    let rtl = verilator::run(&binary, case, &out.join("work"))?;
+    let (rtl, _) = verilator::run(&late, &binary, case, &out.join("work"))?;
     // The case opens with 5 idle clocks, then the buffer's clock: the start bit is clock 6.
     match first_mismatch(&case.model, &rtl, late.signals) {
         Some(m) if m.clock == 6 && m.signal == "tx" => {
@@ -37,6 +39,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let runs: Vec<(Block, Vec<Case>)> = vec![
         (blocks::line_sync(0), blocks::line_sync_cases(0, quick)),
         (blocks::line_sync(3), blocks::line_sync_cases(3, quick)),
+        (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
     ];
     let (mut cases, mut clocks, mut mismatches) = (0usize, 0u64, 0usize);
@@ -45,9 +48,22 @@ pub fn run(args: &[String]) -> Result<()> {
         let mut block_clocks = 0;
         let mut block_mismatches = 0;
         for case in block_cases {
-            let rtl = verilator::run(&binary, case, &out.join("work"))?;
+            let (rtl, rtl_events) = verilator::run(block, &binary, case, &out.join("work"))?;
             block_clocks += case.model.clocks();
-            if let Some(m) = first_mismatch(&case.model, &rtl, block.signals) {
+            let mismatch = first_mismatch(&case.model, &rtl, block.signals);
+            if mismatch.is_none() {
+                if let Some((i, model, rtl)) = first_event_mismatch(&case.model_events, &rtl_events)
+                {
+                    block_mismatches += 1;
+                    println!(
+                        "  MISMATCH {} ({} against {}): delivery {i}: model {model:02X?} rtl {rtl:02X?}",
+                        case.name,
+                        block.build_name(),
+                        block.twin
+                    );
+                }
+            }
+            if let Some(m) = mismatch {
                 block_mismatches += 1;
                 let vcd = out.join(format!("{}.vcd", case.name));
                 write_vcd(
@@ -67,7 +83,7 @@ pub fn run(args: &[String]) -> Result<()> {
             }
         }
         println!(
-            "  {:<24} against {:<22} cases {:>3}  clocks {:>11}  mismatches {}",
+            "  {:<22} against {:<30} cases {:>3}  clocks {:>11}  mismatches {}",
             block.build_name(),
             block.twin,
             block_cases.len(),

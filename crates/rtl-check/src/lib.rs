@@ -9,7 +9,9 @@
 //! - Each [`Case`] carries its stimulus and what the Rust model gave on the same stimulus, in
 //!   strict mode (every clock ticked). The harness only clocks the RTL: the model is the judge.
 //! - [`first_mismatch`] names the first clock and signal at which the two differ, with both
-//!   values; [`write_vcd`] writes both sides into one VCD file.
+//!   values; [`write_vcd`] writes both sides into one VCD file. A block that delivers more than
+//!   bits a clock (a telegram and its bytes) writes [`Event`]s too, compared one by one
+//!   ([`first_event_mismatch`]).
 //! - Nothing here knows a block's insides but [`blocks`], which builds stimuli and runs the
 //!   model; a new block is a module there, a harness and a row in [`blocks::ALL`].
 
@@ -73,6 +75,8 @@ pub struct Block {
     pub params: Vec<(&'static str, i64)>,
     /// The dp-phy twin, for reports.
     pub twin: &'static str,
+    /// Its harness writes events (a third file).
+    pub events: bool,
 }
 
 impl Block {
@@ -93,6 +97,43 @@ pub struct Case {
     /// The harness's records.
     pub stimulus: Vec<u8>,
     pub model: Trace,
+    /// What the model delivered beside its per-clock outputs.
+    pub model_events: Vec<Event>,
+}
+
+/// A delivery at a clock, its payload as the block's harness lays it out.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Event {
+    pub clock: u32,
+    pub payload: Vec<u8>,
+}
+
+impl Event {
+    /// The harness's events file: (u32 clock, u16 length, payload) records.
+    pub fn parse_all(mut bytes: &[u8]) -> io::Result<Vec<Event>> {
+        let mut events = Vec::new();
+        while !bytes.is_empty() {
+            let broken = || io::Error::other("the harness wrote a broken event record");
+            let head = bytes.get(..6).ok_or_else(broken)?;
+            let clock = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
+            let len = usize::from(u16::from_le_bytes([head[4], head[5]]));
+            let payload = bytes.get(6..6 + len).ok_or_else(broken)?.to_vec();
+            events.push(Event { clock, payload });
+            bytes = &bytes[6 + len..];
+        }
+        Ok(events)
+    }
+}
+
+/// The first event at which `rtl` differs from `model`: its index and both sides (None where
+/// one side has no more).
+pub fn first_event_mismatch(
+    model: &[Event],
+    rtl: &[Event],
+) -> Option<(usize, Option<Event>, Option<Event>)> {
+    (0..model.len().max(rtl.len()))
+        .find(|&i| model.get(i) != rtl.get(i))
+        .map(|i| (i, model.get(i).cloned(), rtl.get(i).cloned()))
 }
 
 /// Where the two sides first differ.

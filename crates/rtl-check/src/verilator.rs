@@ -5,7 +5,7 @@
 //! harness binary. [`run`] writes the case's stimulus, runs the binary and parses its outputs;
 //! a harness that fails or writes a broken file is an error, never a pass.
 
-use crate::{Block, Case, Trace};
+use crate::{Block, Case, Event, Trace};
 use std::io;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -44,13 +44,25 @@ pub fn build(block: &Block, gateware: &Path, out: &Path) -> io::Result<PathBuf> 
     Ok(mdir.join("check"))
 }
 
-/// Runs `binary` on `case`'s stimulus in `work`; returns what the RTL put out.
-pub fn run(binary: &Path, case: &Case, work: &Path) -> io::Result<Trace> {
+/// Runs `binary` on `case`'s stimulus in `work`; returns what the RTL put out, per clock and
+/// (a block with events) its events.
+pub fn run(
+    block: &Block,
+    binary: &Path,
+    case: &Case,
+    work: &Path,
+) -> io::Result<(Trace, Vec<Event>)> {
     std::fs::create_dir_all(work)?;
     let stimulus = work.join("stimulus.bin");
     let outputs = work.join("outputs.bin");
+    let events = work.join("events.bin");
     std::fs::write(&stimulus, &case.stimulus)?;
-    let output = Command::new(binary).arg(&stimulus).arg(&outputs).output()?;
+    let mut cmd = Command::new(binary);
+    cmd.arg(&stimulus).arg(&outputs);
+    if block.events {
+        cmd.arg(&events);
+    }
+    let output = cmd.output()?;
     if !output.status.success() {
         return Err(io::Error::other(format!(
             "the harness failed on {}: {}",
@@ -58,5 +70,11 @@ pub fn run(binary: &Path, case: &Case, work: &Path) -> io::Result<Trace> {
             String::from_utf8_lossy(&output.stderr)
         )));
     }
-    Trace::parse(&std::fs::read(&outputs)?)
+    let trace = Trace::parse(&std::fs::read(&outputs)?)?;
+    let events = if block.events {
+        Event::parse_all(&std::fs::read(&events)?)?
+    } else {
+        Vec::new()
+    };
+    Ok((trace, events))
 }

@@ -1,0 +1,248 @@
+// The telegram delimiter: dp_phy::delimiter::Delimiter's twin (crates/dp-phy/src/delimiter.rs).
+//
+// Cuts the receiver's characters into telegrams and checks their frame. A telegram starts only
+// after TSYN of idle line, and ends where its start delimiter (and SD2's length) says, or at the
+// first thing wrong with it: a character error, an idle gap inside, LE != LEr or a missing second
+// SD2, LE out of 4..249, a bad FCS, a missing ED. Each call of the model is an input strobe of
+// this clock, in the model's order: a character (on_char, with the idle clocks before it), then
+// the idle check (on_idle, on every clock the receiver is not inside a character). The outputs
+// are what those calls return, in the same clock.
+//
+// What changed for hardware: the model sums the FCS over its buffer when the telegram is
+// complete; here fcs_q sums the body as the characters come, and fcs_ok_q keeps whether the FCS
+// character matched (the same status, one byte at a time). The telegram's bytes go to a RAM as
+// they come (wr_*), its length out with the delivery. Times are 32 bits (the model's u64 ticks
+// truncated: 89 s at 48 MHz, more than any telegram lasts; the end tick is passed through).
+`default_nettype none
+
+module delimiter (
+  input  wire        clk_i,
+  input  wire        rst_ni,
+  // Delimiter::new: TSYN and the gap inside a telegram, in clocks; a rate's (re)start.
+  input  wire        config_i,
+  input  wire [23:0] tsyn_clocks_i,
+  input  wire [23:0] gap_clocks_i,
+  // Delimiter::reset: drop a telegram under way.
+  input  wire        reset_i,
+  // on_char: a character, its error (0 none, 1 parity, 2 framing, 3 break, 4 noise), the idle
+  // clocks before it (saturating) and its end tick.
+  input  wire        char_i,
+  input  wire [7:0]  char_byte_i,
+  input  wire [2:0]  char_error_i,
+  input  wire [23:0] char_idle_before_i,
+  input  wire [31:0] char_end_i,
+  // on_idle: the line's idle clocks now (saturating) and the tick.
+  input  wire        idle_check_i,
+  input  wire [23:0] idle_i,
+  input  wire [31:0] now_i,
+  // Delivery::Telegram and Delivery::NotSynced of this clock, the telegram's status (0 good,
+  // 1-4 a character error as char_error_i, 5 gap, 6 bad delimiter, 7 length mismatch, 8 bad
+  // length, 9 bad FCS, 10 no ED), its length and end tick.
+  output logic       deliver_o,
+  output logic       not_synced_o,
+  output logic [3:0] status_o,
+  output logic [7:0] len_o,
+  output logic [31:0] end_o,
+  // The telegram RAM.
+  output logic       wr_o,
+  output logic [7:0] wr_addr_o,
+  output logic [7:0] wr_data_o
+);
+  localparam logic [7:0] SD1 = 8'h10, SD2 = 8'h68, SD3 = 8'hA2, SD4 = 8'hDC, SC = 8'hE5,
+                         ED = 8'h16;
+  localparam logic [3:0] StGood = 4'd0, StGap = 4'd5, StBadDelimiter = 4'd6,
+                         StLengthMismatch = 4'd7, StBadLength = 4'd8, StBadFcs = 4'd9,
+                         StNoEnd = 4'd10;
+
+  logic [23:0] tsyn_q, tsyn_d, gap_q, gap_d;
+  logic        inside_q, inside_d;
+  // The telegram's length by its delimiter, 0 while an SD2's is not known yet.
+  logic [7:0]  expect_q, expect_d;
+  logic [7:0]  len_q, len_d;
+  logic [7:0]  first_q, first_d;
+  logic [7:0]  le_q, le_d;
+  logic [7:0]  fcs_q, fcs_d;
+  logic        fcs_ok_q, fcs_ok_d;
+
+  // The character's place in the telegram (len 0 and expect by its delimiter at a start), and
+  // whether it is appended.
+  logic       appending;
+  logic [7:0] len_base, expect_base, first_now, index_fcs;
+  logic       has_fcs, in_body;
+
+  always_comb begin
+    tsyn_d       = tsyn_q;
+    gap_d        = gap_q;
+    inside_d     = inside_q;
+    expect_d     = expect_q;
+    len_d        = len_q;
+    first_d      = first_q;
+    le_d         = le_q;
+    fcs_d        = fcs_q;
+    fcs_ok_d     = fcs_ok_q;
+    deliver_o    = 1'b0;
+    not_synced_o = 1'b0;
+    status_o     = StGood;
+    end_o        = '0;
+    wr_o         = 1'b0;
+    wr_addr_o    = len_q;
+    wr_data_o    = char_byte_i;
+    appending    = 1'b0;
+    len_base     = len_q;
+    expect_base  = expect_q;
+    first_now    = first_q;
+    index_fcs    = '0;
+    has_fcs      = 1'b0;
+    in_body      = 1'b0;
+
+    if (config_i) begin
+      tsyn_d   = tsyn_clocks_i;
+      gap_d    = gap_clocks_i;
+      inside_d = 1'b0;
+    end else if (reset_i) begin
+      inside_d = 1'b0;
+    end else begin
+      if (char_i) begin
+        if (inside_q) begin
+          if (char_idle_before_i > gap_q) begin
+            deliver_o = 1'b1;
+            status_o  = StGap;
+            end_o     = char_end_i;
+            inside_d  = 1'b0;
+          end else begin
+            appending = 1'b1;
+          end
+        end else if (char_idle_before_i < tsyn_q) begin
+          not_synced_o = 1'b1;
+        end else begin
+          len_base = '0;
+          len_d    = '0;
+          inside_d = 1'b1;
+          fcs_d    = '0;
+          fcs_ok_d = 1'b0;
+          if (char_error_i != 3'd0) begin
+            deliver_o = 1'b1;
+            status_o  = {1'b0, char_error_i};
+            end_o     = char_end_i;
+            inside_d  = 1'b0;
+          end else begin
+            appending = 1'b1;
+            case (char_byte_i)
+              SD1:     expect_base = 8'd6;
+              SD2:     expect_base = 8'd0;
+              SD3:     expect_base = 8'd14;
+              SD4:     expect_base = 8'd3;
+              SC:      expect_base = 8'd1;
+              default: begin
+                // Not a start delimiter: kept as the telegram, and refused.
+                appending = 1'b0;
+                wr_o      = 1'b1;
+                wr_addr_o = 8'd0;
+                len_d     = 8'd1;
+                deliver_o = 1'b1;
+                status_o  = StBadDelimiter;
+                end_o     = char_end_i;
+                inside_d  = 1'b0;
+              end
+            endcase
+            expect_d = expect_base;
+          end
+        end
+      end
+
+      if (appending) begin
+        if (char_error_i != 3'd0) begin
+          deliver_o = 1'b1;
+          status_o  = {1'b0, char_error_i};
+          end_o     = char_end_i;
+          inside_d  = 1'b0;
+        end else begin
+          wr_o      = 1'b1;
+          wr_addr_o = len_base;
+          len_d     = len_base + 1'b1;
+          first_now = (len_base == 8'd0) ? char_byte_i : first_q;
+          first_d   = first_now;
+          // The FCS: SD1 and SD3 sum bytes 1 .. expect-3, SD2 bytes 4 .. expect-3; the byte at
+          // expect-2 is the FCS, at expect-1 the ED.
+          has_fcs   = first_now == SD1 || first_now == SD2 || first_now == SD3;
+          index_fcs = expect_base - 8'd2;
+          in_body   = has_fcs && expect_base != 8'd0 && len_base < index_fcs
+                      && len_base >= ((first_now == SD2) ? 8'd4 : 8'd1);
+          if (in_body) fcs_d = fcs_q + char_byte_i;
+          if (has_fcs && expect_base != 8'd0 && len_base == index_fcs) begin
+            fcs_ok_d = char_byte_i == fcs_q;
+          end
+          if (first_now == SD2 && len_base == 8'd1
+              && (char_byte_i < 8'd4 || char_byte_i > 8'd249)) begin
+            deliver_o = 1'b1;
+            status_o  = StBadLength;
+            end_o     = char_end_i;
+            inside_d  = 1'b0;
+          end else if (first_now == SD2 && len_base == 8'd1) begin
+            le_d = char_byte_i;
+          end else if (first_now == SD2 && len_base == 8'd2 && char_byte_i != le_q) begin
+            deliver_o = 1'b1;
+            status_o  = StLengthMismatch;
+            end_o     = char_end_i;
+            inside_d  = 1'b0;
+          end else if (first_now == SD2 && len_base == 8'd3 && char_byte_i != SD2) begin
+            deliver_o = 1'b1;
+            status_o  = StLengthMismatch;
+            end_o     = char_end_i;
+            inside_d  = 1'b0;
+          end else begin
+            if (first_now == SD2 && len_base == 8'd2) begin
+              // LE was checked to be at most 249: LE + 6 fits.
+              expect_d    = le_q + 8'd6;
+              expect_base = le_q + 8'd6;
+            end
+            if (expect_base != 8'd0 && len_base + 8'd1 >= expect_base) begin
+              deliver_o = 1'b1;
+              end_o     = char_end_i;
+              inside_d  = 1'b0;
+              if (!has_fcs)                 status_o = StGood;
+              else if (!fcs_ok_d)           status_o = StBadFcs;
+              else if (char_byte_i != ED)   status_o = StNoEnd;
+              else                          status_o = StGood;
+            end
+          end
+        end
+      end
+
+      // on_idle, after the character.
+      if (idle_check_i && inside_d && idle_i > gap_q) begin
+        deliver_o = 1'b1;
+        status_o  = StGap;
+        end_o     = now_i;
+        inside_d  = 1'b0;
+      end
+    end
+    len_o = len_d;
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      tsyn_q   <= '0;
+      gap_q    <= '0;
+      inside_q <= 1'b0;
+      expect_q <= '0;
+      len_q    <= '0;
+      first_q  <= '0;
+      le_q     <= '0;
+      fcs_q    <= '0;
+      fcs_ok_q <= 1'b0;
+    end else begin
+      tsyn_q   <= tsyn_d;
+      gap_q    <= gap_d;
+      inside_q <= inside_d;
+      expect_q <= expect_d;
+      len_q    <= len_d;
+      first_q  <= first_d;
+      le_q     <= le_d;
+      fcs_q    <= fcs_d;
+      fcs_ok_q <= fcs_ok_d;
+    end
+  end
+endmodule
+
+`default_nettype wire

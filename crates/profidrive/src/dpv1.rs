@@ -206,8 +206,14 @@ impl Dpv1Server {
             Err(e) => {
                 let (reference, id, axis) =
                     ParamRequestPdu::header(bytes).unwrap_or((0, RequestId::Read, 0));
+                // Table 19 has two negative response IDs: a change's (82h), and a read's
+                // (81h), which also answers a request ID that is neither.
+                let nak = match id {
+                    RequestId::Change => 0x82,
+                    _ => 0x81,
+                };
                 let mut w = Writer::new(&mut self.answer.bytes);
-                w.header(reference, u8::from(id) | 0x80, axis, 1);
+                w.header(reference, nak, axis, 1);
                 let _ = w.error(e.error_number());
                 self.answer.len = w.len();
                 self.state = State::Done;
@@ -226,6 +232,13 @@ impl Dpv1Server {
                 RequestId::Read => {
                     self.answer
                         .read_one(&pdu, next, params, drive, ppo, &mut drive_request)
+                }
+                // Seed 004 lines 1078-1090: PPO1, 2 and 5 change parameters through their
+                // PKW channel only; over DP-V1 they read. Each write is refused with 0Bh (no
+                // operation priority), nothing changed.
+                _ if ppo_has_pkw(ppo) => {
+                    self.answer.outcomes[next] = Some(ErrorNumber::NoChangeRights);
+                    Some(())
                 }
                 _ => self
                     .answer
@@ -356,6 +369,13 @@ impl Answer {
     }
 }
 
+/// Whether PPO `number` has a PKW channel (PPO1, 2, 5).
+fn ppo_has_pkw(number: u8) -> bool {
+    crate::ppo::Ppo::ALL
+        .iter()
+        .any(|p| p.number() == number && p.has_pkw())
+}
+
 /// The drive access a DP-V1 address asks for (a read, or a write of `write`): the drive
 /// parameter's number is xx.yy x 100 with its high byte in the parameter number and its low
 /// byte in the subindex (seed 004, example 1a); one element only.
@@ -442,6 +462,8 @@ mod tests {
         server: Dpv1Server,
         params: Parameters,
         drive: MockDrive,
+        /// The PPO in force (3: no PKW).
+        ppo: u8,
     }
 
     impl Bench {
@@ -450,6 +472,7 @@ mod tests {
                 server: Dpv1Server::default(),
                 params: Parameters::default(),
                 drive: MockDrive::default(),
+                ppo: 3,
             }
         }
 
@@ -467,7 +490,10 @@ mod tests {
                 [0x5F, 1, 47, pdu.len() as u8],
                 "the write is acknowledged at once"
             );
-            while self.server.step(&mut self.params, &mut self.drive, 3) {}
+            while self
+                .server
+                .step(&mut self.params, &mut self.drive, self.ppo)
+            {}
             let read = self.msac1(Request::Read {
                 at: AT,
                 length: 240,
@@ -531,6 +557,34 @@ mod tests {
             b.drive.persistent_writes, writes,
             "values the drive holds are not written"
         );
+    }
+
+    /// Seed 004 lines 1078-1090 (and its Chk_Cfg table): with PPO1, 2 and 5 the PKW channel
+    /// changes parameters and DP-V1 only reads them; a DP-V1 write is refused parameter by
+    /// parameter with 0Bh (no operation priority), the drive untouched. PPO3, 4 and 6 write.
+    #[test]
+    fn seed_004_lines_1078_1090_dpv1_writes_only_with_ppo_3_4_6() {
+        let (v300, v500) = (word(300), word(500));
+        let values = [Values::word(&v300), Values::word(&v500)];
+        let addresses = [value(4, 0xB2, 0), value(4, 0xB3, 0)];
+        for ppo in 1..=6u8 {
+            let mut b = Bench::new();
+            b.ppo = ppo;
+            let response = b.request(RequestId::Change, &addresses, &values);
+            let read = b.request(RequestId::Read, &[value(4, 0xB2, 0)], &[]);
+            if matches!(ppo, 1 | 2 | 5) {
+                assert_eq!(
+                    response,
+                    [0x21, 0x82, 1, 2, 0x44, 1, 0, 0x0B, 0x44, 1, 0, 0x0B],
+                    "PPO{ppo}"
+                );
+                assert_eq!(b.drive.persistent_writes, 0, "PPO{ppo}");
+                assert_eq!(read[..2], [0x21, 0x01], "PPO{ppo} reads");
+            } else {
+                assert_eq!(response, [0x21, 0x02, 1, 2], "PPO{ppo}");
+                assert_eq!(read, [0x21, 0x01, 1, 1, 0x42, 1, 0x01, 0x2C], "PPO{ppo}");
+            }
+        }
     }
 
     /// Examples 3-5: 918 read, 915 and 916 subindex 3 written (PZD3 to 12.06 and from 12.05).
@@ -768,9 +822,48 @@ mod tests {
     fn a_malformed_request_is_answered_with_one_error() {
         let mut b = Bench::new();
         let response = b.exchange(&[9, 0x07, 1, 1]);
-        assert_eq!(response, [9, 0x87, 1, 1, 0x44, 1, 0, 0x90]);
+        assert_eq!(response, [9, 0x81, 1, 1, 0x44, 1, 0, 0x90]);
         let response = b.exchange(&[9, 0x01, 1, 2, 0x10]);
         assert_eq!(response, [9, 0x81, 1, 1, 0x44, 1, 0, 0x16]);
+    }
+
+    /// Seed 004 tables 18 and 19: a request reference is 1 .. 255 and the axis 0 or 1; a
+    /// request with reference 0 or axis 2-255 is refused with error 66h (request not
+    /// supported, table 21), the header mirrored; an invalid request ID is answered 81h (table
+    /// 19 has 01h, 81h, 02h and 82h only) with error 90h, and never 83h or 87h.
+    #[test]
+    fn seed_004_tables_18_19_the_request_header_is_checked() {
+        let mut b = Bench::new();
+        // Reference 1, read, axis 1, one parameter: value of 4.B4 (seed 004 example 1a's 12.04).
+        let read = [0x01, 0x01, 0x01, 0x01, 0x10, 0x01, 0x00, 0x04, 0x00, 0xB4];
+        let mut zero_ref = read;
+        zero_ref[0] = 0;
+        assert_eq!(b.exchange(&zero_ref), [0, 0x81, 1, 1, 0x44, 1, 0, 0x66]);
+        for axis in [2u8, 7, 255] {
+            let mut request = read;
+            request[2] = axis;
+            assert_eq!(b.exchange(&request), [1, 0x81, axis, 1, 0x44, 1, 0, 0x66]);
+        }
+        let change = [
+            0x05, 0x02, 0x03, 0x01, 0x10, 0x01, 0x00, 0x04, 0x00, 0xB4, 0x42, 0x01, 0x00, 0x01,
+        ];
+        assert_eq!(b.exchange(&change), [5, 0x82, 3, 1, 0x44, 1, 0, 0x66]);
+        for id in [0x00u8, 0x03, 0x07, 0x7F, 0xFF] {
+            let mut request = read;
+            request[1] = id;
+            let response = b.exchange(&request);
+            assert_eq!(
+                response,
+                [1, 0x81, 1, 1, 0x44, 1, 0, 0x90],
+                "request ID {id:#04x}"
+            );
+        }
+        // Axis 0 and 1 both read.
+        for axis in [0u8, 1] {
+            let mut request = read;
+            request[2] = axis;
+            assert_eq!(b.exchange(&request)[..2], [1, 0x01]);
+        }
     }
 
     proptest::proptest! {

@@ -180,6 +180,10 @@ pub enum RequestError {
     Layout,
     /// A value block's format is one the adapter does not take (error 17h).
     Format,
+    /// Request reference 0 (table 18: 1 .. 255; error 66h, request not supported).
+    Reference,
+    /// An axis other than 0 or 1 (table 18: "set to 0 or 1"; error 66h).
+    Axis,
 }
 
 impl RequestError {
@@ -188,6 +192,7 @@ impl RequestError {
             RequestError::RequestId => ErrorNumber::InvalidRequestId,
             RequestError::Layout => ErrorNumber::IllegalAddress,
             RequestError::Format => ErrorNumber::IllegalFormat,
+            RequestError::Reference | RequestError::Axis => ErrorNumber::UnsupportedRequest,
         }
     }
 }
@@ -221,6 +226,12 @@ impl<'a> ParamRequestPdu<'a> {
         let id = RequestId::from(id);
         if !matches!(id, RequestId::Read | RequestId::Change) {
             return Err(RequestError::RequestId);
+        }
+        if reference == 0 {
+            return Err(RequestError::Reference);
+        }
+        if axis > 1 {
+            return Err(RequestError::Axis);
         }
         let count = usize::from(count);
         if count == 0 || count > MAX_PARAMETERS {

@@ -893,6 +893,19 @@ mod tests {
         exchange(&mut app, 80, &ppo3(START, 5000));
         exchange(&mut app, 90, &ppo3(START, 5000));
         assert_eq!(app.params().alarms[..2], [0, 36]);
+        // Seed 004 table 22: another comes; 953 it, 954 the one before, no 0 between. Then a
+        // third while the second is still on: both move on.
+        app.drive_mut().warning = Some(37);
+        exchange(&mut app, 100, &ppo3(START, 5000));
+        exchange(&mut app, 110, &ppo3(START, 5000));
+        assert_eq!(app.params().alarms[..3], [37, 36, 0]);
+        app.drive_mut().warning = None;
+        exchange(&mut app, 120, &ppo3(START, 5000));
+        exchange(&mut app, 130, &ppo3(START, 5000));
+        app.drive_mut().warning = Some(38);
+        exchange(&mut app, 140, &ppo3(START, 5000));
+        exchange(&mut app, 150, &ppo3(START, 5000));
+        assert_eq!(app.params().alarms[..4], [38, 37, 36, 0]);
         // 958-960: not supported.
         let mut p = app.params().clone();
         let read = |p: &mut Parameters, pnu| {

@@ -111,7 +111,12 @@ impl FaultBuffer {
             };
             self.warning_due = false;
             if let Ok(FaultRecord::Warning(n)) = record {
-                shift_alarms(params);
+                // The one before it moves on only if it is still current: a warning that went
+                // is at 954 already, and 953's 0 is no alarm to keep (table 22: no zeros in the
+                // history).
+                if params.alarms[0] != 0 {
+                    shift_alarms(params);
+                }
                 params.alarms[0] = u16::from(n);
                 return true;
             }

@@ -608,7 +608,7 @@ mod tests {
 
         #[test]
         fn built_requests_parse_back(
-            reference: u8, change: bool, axis: u8,
+            reference in 1u8..=255, change: bool, axis in 0u8..=1,
             params in proptest::collection::vec((any_address(), 0u8..4, proptest::collection::vec(proptest::prelude::any::<u16>(), 0..4)), 1..8),
         ) {
             let addresses: Vec<ParamAddress> = params.iter().map(|p| p.0).collect();
@@ -621,6 +621,13 @@ mod tests {
             let n = build_request(&mut out, reference, id, axis, &addresses, if change { &values } else { &[] }).unwrap();
             let request = ParamRequestPdu::parse(&out[..n]).unwrap();
             proptest::prop_assert_eq!((request.reference, request.id, request.axis, request.count()), (reference, id, axis, addresses.len()));
+            // Table 18: the same request with reference 0 or an axis past 1 is refused.
+            let mut bad = out;
+            bad[0] = 0;
+            proptest::prop_assert_eq!(ParamRequestPdu::parse(&bad[..n]).err(), Some(RequestError::Reference));
+            let mut bad = out;
+            bad[2] = 2 + axis.wrapping_mul(97) % 254;
+            proptest::prop_assert_eq!(ParamRequestPdu::parse(&bad[..n]).err(), Some(RequestError::Axis));
             for (i, a) in addresses.iter().enumerate() {
                 proptest::prop_assert_eq!(request.address(i), *a);
                 if change {

@@ -79,6 +79,9 @@ pub struct ProfidriveApp<D> {
     /// The process data's last exchange with the drive, until the parameter half of the
     /// service notes it ([`ProfidriveApp::service_pkw`]).
     exchanged: Option<Result<(), DriveError>>,
+    /// The vendor control word's fault reset bit in the last outputs applied (its rise resets a
+    /// lost link's fault in 945).
+    vendor_reset: bool,
     /// The PROFIdrive parameter server on DP-V1.
     dpv1: Dpv1Server,
     /// The drive's 51.21 DP MODE asks for DP-V1: Set_Prm carries DPV1_Status_1-3 before the
@@ -115,6 +118,7 @@ impl<D: Drive> ProfidriveApp<D> {
             link_error: None,
             link_diag: LinkDiagnosis::new(),
             diag_changed: false,
+            vendor_reset: false,
             profile: Profile::new(),
             drive_status: 0,
             rated_reference: 0,
@@ -413,6 +417,21 @@ impl<D: Drive> ProfidriveApp<D> {
         }
         self.faults
             .service_warnings(&mut self.drive, &mut self.params);
+        // A lost link is a fault of its own (issue 30): latched in the PROFIdrive state
+        // machine; its 945 entry goes to the history with the master's RESET once the link is
+        // back, as a drive fault's does (seed 004 line 972).
+        let link_lost = result.is_err_and(DriveError::is_link_fault);
+        let reset = if profidrive {
+            self.profile.set_link_lost(link_lost);
+            self.profile.take_reset_done()
+        } else {
+            let rose = apply[0] & crate::words::control::FAULT_RESET != 0 && !self.vendor_reset;
+            self.vendor_reset = apply[0] & crate::words::control::FAULT_RESET != 0;
+            rose && !link_lost
+        };
+        if reset && self.faults.link_fault_reset(&mut self.params) {
+            self.diag_changed = true;
+        }
         if profidrive {
             self.profile.observe(self.drive_status);
             from_drive[0] = self.profile.status_word(self.drive_status);
@@ -800,9 +819,11 @@ mod tests {
     /// Issue 18, seed 000 line 465 and seed 004 lines 725-745: in the PROFIdrive mode a lost
     /// drive is a fault the PROFIdrive way (TRIPPED in the status word, not C0xxh, which a
     /// table-8 status word reads as "ready to run, no fault"), its cause in 945/947 and the
-    /// extended diagnosis; when the link is back, the status word follows the drive again.
+    /// extended diagnosis. Issue 30 (the PROFIdrive state machine, seed 004 line 972): the
+    /// fault is latched; when the link is back TRIPPED holds until a RESET, which moves 945's
+    /// entry to the history (945.1 reads 0), then SWITCH-ON INHIBIT until ON goes 0 -> 1.
     #[test]
-    fn seed_004_lines_725_745_a_lost_drive_in_the_profidrive_mode_is_tripped() {
+    fn seed_004_lines_725_745_972_a_lost_drive_in_the_profidrive_mode_is_a_latched_fault() {
         use crate::profile::control as pd;
         let prm = UserPrm {
             operation: OperationMode::Profidrive,
@@ -824,9 +845,79 @@ mod tests {
         // Still lost: no second entry.
         exchange(&mut app, 20, &ppo3(pd::READY, 0x2000));
         assert_eq!(app.params().fault_count, 1);
+        // A RESET while the link is still lost changes nothing.
+        exchange(&mut app, 25, &ppo3(pd::READY | pd::RESET, 0x2000));
+        exchange(&mut app, 26, &ppo3(pd::READY, 0x2000));
         app.drive_mut().disconnected = false;
-        let inputs = exchange(&mut app, 30, &ppo3(pd::READY, 0x2000));
-        assert_eq!(inputs[0] & crate::profile::status::TRIPPED, 0);
+        use crate::profile::status as pds;
+        for t in [30, 40] {
+            let inputs = exchange(&mut app, t, &ppo3(pd::OPERATE, 0x2000));
+            assert_ne!(inputs[0] & pds::TRIPPED, 0, "latched: {:#06X}", inputs[0]);
+            assert_eq!(app.params().fault_codes[0], 0x7510);
+            assert_eq!(
+                app.drive().control_word & crate::words::control::RUN_ENABLE,
+                0,
+                "the drive is stopped while in FAULT"
+            );
+        }
+        // RESET (bit 7 rising) with ON 1: FAULT -> SWITCH-ON INHIBIT, held while ON stays 1.
+        exchange(&mut app, 50, &ppo3(pd::OPERATE | pd::RESET, 0x2000));
+        let inputs = exchange(&mut app, 60, &ppo3(pd::OPERATE, 0x2000));
+        assert_eq!(inputs[0] & pds::TRIPPED, 0);
+        assert_ne!(inputs[0] & pds::SWC_ON_INHIB, 0, "{:#06X}", inputs[0]);
+        let p = app.params();
+        assert_eq!(
+            (
+                p.fault_codes[0],
+                p.fault_codes[8],
+                p.fault_numbers[8],
+                p.fault_count
+            ),
+            (0, 0x7510, 0x22, 1),
+            "945.1 reads 0, the lost link in the history"
+        );
+        // ON 0 -> 1: READY TO SWITCH ON, then READY TO OPERATE and OPERATION ENABLED.
+        exchange(&mut app, 70, &ppo3(pd::READY, 0x2000));
+        exchange(&mut app, 80, &ppo3(pd::OPERATE, 0x2000));
+        let inputs = exchange(&mut app, 90, &ppo3(pd::OPERATE, 0x2000));
+        assert_ne!(inputs[0] & pds::RDY_REF, 0, "{:#06X}", inputs[0]);
+    }
+
+    /// Seed 004 line 972 in the vendor mode: the lost link's 945 entry (7510h) stays at
+    /// sub-index 1 after the link is back until the master's fault reset (the control word's
+    /// bit 15 rising, not while still lost), then reads 0 with the entry in the history.
+    #[test]
+    fn seed_004_line_972_a_lost_links_945_entry_goes_to_the_history_on_reset() {
+        use crate::words::control::FAULT_RESET;
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        exchange(&mut app, 0, &ppo3(START, 5000));
+        app.drive_mut().disconnected = true;
+        exchange(&mut app, 10, &ppo3(START, 5000));
+        exchange(&mut app, 20, &ppo3(START | FAULT_RESET, 5000));
+        assert_eq!(
+            app.params().fault_codes[0],
+            0x7510,
+            "a reset while lost keeps it"
+        );
+        app.drive_mut().disconnected = false;
+        exchange(&mut app, 30, &ppo3(START | FAULT_RESET, 5000));
+        exchange(&mut app, 40, &ppo3(START, 5000));
+        assert_eq!(
+            app.params().fault_codes[0],
+            0x7510,
+            "held, no rising reset yet"
+        );
+        exchange(&mut app, 50, &ppo3(START | FAULT_RESET, 5000));
+        let p = app.params();
+        assert_eq!(
+            (
+                p.fault_codes[0],
+                p.fault_codes[8],
+                p.fault_numbers[8],
+                p.fault_count
+            ),
+            (0, 0x7510, 0x22, 1)
+        );
     }
 
     /// Seed 004 line 731: the extended diagnosis is always 2 bytes ("fixed to 2"); with no

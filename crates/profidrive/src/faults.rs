@@ -163,6 +163,19 @@ impl FaultBuffer {
         self.push(at, DRIVECOM_SERIAL_INTERFACE, u16::from(link_error), params);
     }
 
+    /// The master reset the lost drive link's fault (the link is back): it moves to the
+    /// history and sub-index 1 reads 0, as a drive fault's reset does (seed 004 line 972).
+    /// Whether the buffer changed.
+    pub fn link_fault_reset(&mut self, params: &mut Parameters) -> bool {
+        if params.fault_codes[0] != DRIVECOM_SERIAL_INTERFACE {
+            return false;
+        }
+        self.shift(params);
+        params.fault_codes[0] = 0;
+        params.fault_numbers[0] = 0;
+        true
+    }
+
     /// A new fault at sub-index 1; a fault still there (not reset) moves on first.
     fn push(&mut self, at: Instant, code: u16, number: u16, params: &mut Parameters) {
         if params.fault_codes[0] != 0 {

@@ -98,6 +98,10 @@ pub struct Profile {
     previous_control: u16,
     /// RESET rose while in FAULT: the acknowledgement holds until the drive's fault is gone.
     reset_requested: bool,
+    /// The drive link is lost: a fault of the adapter's own, latched like the drive's.
+    link_lost: bool,
+    /// A RESET took the state machine out of FAULT since the last look.
+    reset_done: bool,
 }
 
 impl Profile {
@@ -109,7 +113,24 @@ impl Profile {
             reference: 0,
             previous_control: 0,
             reset_requested: false,
+            link_lost: false,
+            reset_done: false,
         }
+    }
+
+    /// The drive link lost (or back): a lost link is a fault (FAULT at once, the drive stopped),
+    /// held like the drive's own until a RESET once the link is back, then SWITCH-ON INHIBIT
+    /// until ON goes 0 -> 1.
+    pub fn set_link_lost(&mut self, lost: bool) {
+        if lost {
+            self.state = DriveState::Fault;
+        }
+        self.link_lost = lost;
+    }
+
+    /// Whether a RESET took the state machine out of FAULT since the last call.
+    pub fn take_reset_done(&mut self) -> bool {
+        core::mem::take(&mut self.reset_done)
     }
 }
 
@@ -150,7 +171,7 @@ impl Profile {
         self.step(
             cw,
             reset,
-            drive_status & vendor_status::FAULT != 0,
+            drive_status & vendor_status::FAULT != 0 || self.link_lost,
             drive_status & vendor_status::RUNNING != 0,
         );
         self.drive_command(rated, units)
@@ -168,7 +189,10 @@ impl Profile {
         let off3 = cw & control::NO_OFF3 == 0;
         let on = cw & control::ON != 0;
         let enable = cw & control::OPERATION_ENABLE != 0;
-        if self.state == Fault && reset {
+        // A RESET while the link is lost acknowledges nothing: the fault is latched until one
+        // comes with the link back (a drive's own fault takes the RESET while it lasts, since
+        // the drive needs it to clear).
+        if self.state == Fault && reset && !self.link_lost {
             self.reset_requested = true;
         }
         self.state = match self.state {
@@ -193,6 +217,9 @@ impl Profile {
             ReadyToOperate | OperationEnabled => ReadyToOperate,
         };
         if self.state != Fault {
+            if self.reset_requested {
+                self.reset_done = true;
+            }
             self.reset_requested = false;
         }
     }

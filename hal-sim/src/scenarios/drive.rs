@@ -429,9 +429,49 @@ pub fn profidrive<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> i
         "the drive link lost in the PROFIdrive mode: status word TRIPPED (no C0xxh), 945[1] = 7510h",
         tripped && pd_reply(&r) == Some((ResponseLabel::ArrayWord, 0x7510)),
     );
+    // Latched (issue 30): TRIPPED holds with the link back until a RESET, which moves 945's
+    // entry to the history; then SWITCH-ON INHIBIT until ON goes 0 -> 1.
     sim.drive_now().link_fault = LinkFault::None;
-    let back = wait(sim, 100_000, |i, _| i[4] & pds::TRIPPED == 0)?;
-    c.check("the link back: TRIPPED clears", back);
+    let cleared_by_itself = wait(sim, 100_000, |i, _| i[4] & pds::TRIPPED == 0)?;
+    let r = pkw(
+        sim,
+        pd_request(RequestLabel::ReadArray, 945, 1, 0),
+        &out[4..],
+    )?;
+    c.check(
+        "the link back: TRIPPED holds, 945[1] still 7510h, until a RESET",
+        !cleared_by_itself && pd_reply(&r) == Some((ResponseLabel::ArrayWord, 0x7510)),
+    );
+    // RESET with ON still 1: SWITCH-ON INHIBIT holds while ON stays 1.
+    out[4] = pd::OPERATE | pd::RESET;
+    put(sim, &out);
+    let inhibited = wait(sim, 100_000, |i, _| {
+        i[4] & pds::TRIPPED == 0 && i[4] & pds::SWC_ON_INHIB != 0
+    })?;
+    out[4] = pd::OPERATE;
+    put(sim, &out);
+    let r1 = pkw(
+        sim,
+        pd_request(RequestLabel::ReadArray, 945, 1, 0),
+        &out[4..],
+    )?;
+    let r9 = pkw(
+        sim,
+        pd_request(RequestLabel::ReadArray, 945, 9, 0),
+        &out[4..],
+    )?;
+    let still_inhibited = wait(sim, 20_000, |i, _| i[4] & pds::SWC_ON_INHIB != 0)?;
+    c.check(
+        "RESET: TRIPPED clears to SWITCH-ON INHIBIT (held while ON stays 1), 945[1] = 0 and 945[9] = 7510h (the history)",
+        inhibited
+            && still_inhibited
+            && pd_reply(&r1) == Some((ResponseLabel::ArrayWord, 0))
+            && pd_reply(&r9) == Some((ResponseLabel::ArrayWord, 0x7510)),
+    );
+    // ON 0 -> 1.
+    out[4] = pd::READY;
+    put(sim, &out);
+    wait(sim, 50_000, |i, _| i[4] & pds::RDY_ON != 0)?;
     out[4] = pd::OPERATE;
     put(sim, &out);
     let running = wait(sim, 800_000, |i, d| {

@@ -233,10 +233,12 @@ impl Profile {
         if cw & control::NO_OFF3 == 0 || self.state == DriveState::Off3Active {
             word |= vendor::QUICK_STOP;
         }
-        // OFF1 ramps down: the drive stays enabled with its run command off.
+        // OFF1 ramps down: the drive stays enabled with its run command off. OPERATION_ENABLE
+        // = 0 (table 7: "inhibit operation", READY TO OPERATE) takes the run enable away: the
+        // drive's output goes off and the motor coasts.
         if matches!(
             self.state,
-            DriveState::ReadyToOperate | DriveState::OperationEnabled | DriveState::Off1Active
+            DriveState::OperationEnabled | DriveState::Off1Active
         ) {
             word |= vendor::RUN_ENABLE | vendor::START_ENABLE;
         }
@@ -351,6 +353,61 @@ mod tests {
         let d = p.command(RUN, 10_000, 0, RATED_50HZ, 20_000);
         assert_eq!(d.reference, 2500);
         assert_eq!(d.control_word & vendor::REVERSE, 0);
+    }
+
+    /// Seed 004 table 7, bit 3: OPERATION_ENABLE = 0 is "inhibit operation" (OPERATION
+    /// INHIBIT): the drive's run enable goes off, its output with it, and the motor coasts; it
+    /// is no ramp stop with the drive still enabled (that is OFF1).
+    #[test]
+    fn seed_004_table_7_operation_enable_0_inhibits_and_the_motor_coasts() {
+        let mut p = Profile::default();
+        for cw in [OFF, OFF | control::ON, RUN] {
+            p.command(cw, 0x2000, 0, RATED_50HZ, RATED);
+        }
+        let running = vendor_status::RUNNING;
+        let d = p.command(RUN, 0x2000, running, RATED_50HZ, RATED);
+        assert_eq!(p.state, OperationEnabled);
+        assert_eq!(
+            d.control_word & (vendor::RUN_ENABLE | vendor::RUN),
+            vendor::RUN_ENABLE | vendor::RUN
+        );
+        let d = p.command(
+            RUN & !control::OPERATION_ENABLE,
+            0x2000,
+            running,
+            RATED_50HZ,
+            RATED,
+        );
+        assert_eq!(p.state, ReadyToOperate);
+        assert_eq!(
+            d.control_word & (vendor::RUN_ENABLE | vendor::RUN),
+            0,
+            "inhibited: coasting"
+        );
+        assert_eq!(p.status_word(running) & status::RDY_REF, 0);
+        // OFF1 instead ramps: run enable kept, run command off.
+        let mut p = Profile::default();
+        for cw in [OFF, OFF | control::ON, RUN] {
+            p.command(cw, 0x2000, 0, RATED_50HZ, RATED);
+        }
+        let d = p.command(RUN & !control::ON, 0x2000, running, RATED_50HZ, RATED);
+        assert_eq!(p.state, Off1Active);
+        assert_eq!(
+            d.control_word & (vendor::RUN_ENABLE | vendor::RUN),
+            vendor::RUN_ENABLE
+        );
+        // Enabled again: the drive runs.
+        let mut p = Profile::default();
+        for cw in [
+            OFF,
+            OFF | control::ON,
+            RUN & !control::OPERATION_ENABLE,
+            RUN,
+        ] {
+            p.command(cw, 0x2000, 0, RATED_50HZ, RATED);
+        }
+        let d = p.command(RUN, 0x2000, 0, RATED_50HZ, RATED);
+        assert_eq!(d.control_word & vendor::RUN, vendor::RUN);
     }
 
     #[test]

@@ -920,6 +920,51 @@ mod tests {
         );
     }
 
+    /// Seed 004 tables 7 and 8 (decided, README "Differences from the manuals"): INCHING_1/2
+    /// (control bits 8, 9) "see the drive's manual", and seed 000's drive has no inching in its
+    /// control word nor a jog speed among its parameters: the bits change nothing the drive
+    /// gets. ABOVE_LIMIT (status bit 10) is "actual at or above the supervision limit"; the
+    /// drive has no supervision limit either, so the limit is the rated speed (4000h): on at
+    /// 50.00 Hz of a 50.00 Hz drive, off just below.
+    #[test]
+    fn seed_004_tables_7_8_inching_changes_nothing_and_above_limit_is_the_rated_speed() {
+        use crate::profile::{control as pd, status as pds};
+        let prm = UserPrm {
+            operation: OperationMode::Profidrive,
+            ..UserPrm::DEFAULT
+        };
+        let mut app = app_with(prm, Ppo::Ppo3);
+        exchange(&mut app, 0, &ppo3(pd::READY, 0x4000));
+        exchange(&mut app, 10, &ppo3(pd::READY | pd::ON, 0x4000));
+        exchange(&mut app, 20, &ppo3(pd::OPERATE, 0x4000));
+        exchange(&mut app, 30, &ppo3(pd::OPERATE, 0x4000));
+        let plain = (app.drive().control_word, app.drive().get(SET_FREQUENCY));
+        for (t, inching) in [(40, 1u16 << 8), (50, 1 << 9), (60, 3 << 8)] {
+            exchange(&mut app, t, &ppo3(pd::OPERATE | inching, 0x4000));
+            assert_eq!(
+                (app.drive().control_word, app.drive().get(SET_FREQUENCY)),
+                plain,
+                "INCHING bits {inching:#06X}"
+            );
+        }
+        // The mock drive runs at its set frequency: the reference sets ACT.
+        for (t, reference, hz, above) in [
+            (70, 0x4000, 5000, true),
+            (80, 0x3FFF, 4999, false),
+            (90, 0x2000, 2500, false),
+        ] {
+            exchange(&mut app, t, &ppo3(pd::OPERATE, reference));
+            let inputs = exchange(&mut app, t + 5, &ppo3(pd::OPERATE, reference));
+            assert_eq!(app.drive().get(SET_FREQUENCY), hz);
+            assert_eq!(inputs[1], (u32::from(hz) * 0x4000 / 5000) as u16, "ACT");
+            assert_eq!(
+                inputs[0] & pds::ABOVE_LIMIT != 0,
+                above,
+                "{hz} at 50.00 Hz rated"
+            );
+        }
+    }
+
     /// Seed 004 line 731: the extended diagnosis is always 2 bytes ("fixed to 2"); with no
     /// flag set, Station_Status_1 does not report it (Ext_Diag clear).
     #[test]

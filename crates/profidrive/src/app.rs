@@ -447,8 +447,6 @@ impl<D: Drive> ProfidriveApp<D> {
             if i32::from(actual).abs() >= units {
                 from_drive[0] |= crate::profile::status::ABOVE_LIMIT;
             }
-            self.params.control_word = apply[0];
-            self.params.status_word = from_drive[0];
         }
         self.pzd_in = from_drive;
         if let Err(e) = result {
@@ -463,6 +461,10 @@ impl<D: Drive> ProfidriveApp<D> {
                 PZD1_LINK_ERROR | u16::from(e.code())
             };
         }
+        // 967/968: the control word in force and the status word the master gets, in every
+        // mode (the vendor's words in the vendor mode).
+        self.params.control_word = apply[0];
+        self.params.status_word = self.pzd_in[0];
         result
     }
 
@@ -570,8 +572,9 @@ impl<D: Drive> Application for ProfidriveApp<D> {
         } else {
             outputs
         };
-        // 928 = 0: the PZD part is invalid, new process data is not taken.
-        let pzd_valid = !self.prm.operation.translates() || self.params.pzd_rights != 0;
+        // 928 = 0: the PZD part is invalid, new process data is not taken (in every mode: the
+        // PROFIdrive parameters are there over DP-V1 in the vendor mode too).
+        let pzd_valid = self.params.pzd_rights != 0;
         if pzd_valid {
             for (word, bytes) in self.pzd_out.iter_mut().zip(pzd.chunks_exact(2)) {
                 *word = u16::from_be_bytes([bytes[0], bytes[1]]);
@@ -963,6 +966,32 @@ mod tests {
                 "{hz} at 50.00 Hz rated"
             );
         }
+    }
+
+    /// Issue 30, the vendor mode over DP-V1: 967 and 968 read the control word in force and
+    /// the status word the master gets (the vendor's), and 928 = 0 stops new process data as
+    /// in the PROFIdrive mode (seed 004's 928: "the PZD part is invalid").
+    #[test]
+    fn vendor_mode_967_968_show_the_words_and_928_0_stops_new_pzd() {
+        let mut app = app_with(UserPrm::DEFAULT, Ppo::Ppo3);
+        let inputs = exchange(&mut app, 0, &ppo3(START, 2500));
+        exchange(&mut app, 10, &ppo3(START, 2500));
+        let inputs2 = exchange(&mut app, 20, &ppo3(START, 2500));
+        assert_eq!(app.params().control_word, START);
+        assert_eq!(app.params().status_word, inputs2[0]);
+        assert_ne!(inputs2[0], 0, "{inputs:04X?}");
+        app.params_mut().pzd_rights = 0;
+        exchange(&mut app, 30, &ppo3(START, 4000));
+        exchange(&mut app, 40, &ppo3(START, 4000));
+        assert_eq!(
+            app.drive().get(SET_FREQUENCY),
+            2500,
+            "928 = 0: 4000 not taken"
+        );
+        app.params_mut().pzd_rights = 1;
+        exchange(&mut app, 50, &ppo3(START, 4000));
+        exchange(&mut app, 60, &ppo3(START, 4000));
+        assert_eq!(app.drive().get(SET_FREQUENCY), 4000);
     }
 
     /// Seed 004 line 731: the extended diagnosis is always 2 bytes ("fixed to 2"); with no

@@ -156,6 +156,25 @@ pub fn drive_parameter(number: u16) -> Option<FunctionCode> {
     code.kind().map(|_| code)
 }
 
+/// The PROFIdrive number xxyy of a drive parameter: [`drive_parameter`]'s inverse (none for a
+/// code no number names).
+pub fn parameter_number(code: FunctionCode) -> Option<u16> {
+    let [hi, bcd] = code.0.to_be_bytes();
+    let group: u16 = match hi {
+        0xF0..=0xFF => u16::from(hi - 0xEF),
+        0xD0 => 21,
+        0xD1 => 22,
+        0xDE => 30,
+        _ => return None,
+    };
+    let (tens, ones) = (bcd >> 4, bcd & 0x0F);
+    if tens > 9 || ones > 9 {
+        return None;
+    }
+    let number = group * 100 + u16::from(tens * 10 + ones);
+    (drive_parameter(number) == Some(code)).then_some(number)
+}
+
 /// A PZD3-10 mapping value (915/916 and the drive's fieldbus group): 0 unused, 1-99 data
 /// sets (none on this drive), 101-9999 drive parameters, 10000 and up refused.
 pub fn pzd_target(value: u16) -> Result<Option<FunctionCode>, ErrorNumber> {
@@ -762,6 +781,25 @@ pub(crate) fn drive_access_for(number: u16, write: Option<u32>) -> Result<Access
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`parameter_number`] names exactly the codes [`drive_parameter`] maps to, back.
+    #[test]
+    fn parameter_numbers_round_trip() {
+        let mut named = 0;
+        for number in 0..=9999u16 {
+            if let Some(code) = drive_parameter(number) {
+                assert_eq!(parameter_number(code), Some(number), "{number}");
+                named += 1;
+            }
+        }
+        assert!(named > 100, "{named}");
+        for raw in 0..=u16::MAX {
+            let code = FunctionCode(raw);
+            if let Some(number) = parameter_number(code) {
+                assert_eq!(drive_parameter(number), Some(code), "{raw:#06X}");
+            }
+        }
+    }
     use crate::testing::MockDrive;
 
     /// One request, to a drive that answers at once.

@@ -329,6 +329,36 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
             i[5] != 0 && i[5] == d.output_frequency() / 10 && d.output_frequency() == 2500
         })?;
     c.check("RdPZD2 = D0.04: PZD2 in is the output current", remapped);
+
+    // Issue 30: in the vendor mode the drive's group 51 shows the RdPZD/WrPZD mapping in force
+    // (PZD3 out F0.13 = 113, PZD3 in D0.04 = 2104), and a 51.05 set at the panel is not taken:
+    // the master's user parameters rule, and the group shows them again.
+    let group = |d: &DriveSim, i: u8| d.read_register(fieldbus::code(i).0).unwrap_or(u16::MAX);
+    let mut prm = UserPrm::DEFAULT;
+    prm.wr_pzd[1] = FunctionCode(ACCEL_TIME);
+    prm.rd_pzd[1] = FunctionCode(OUTPUT_CURRENT);
+    let ok = start(sim, setup(Ppo::Ppo2, prm))?;
+    let shown = ok
+        && wait_drive(sim, 200_000, |d| {
+            group(d, fb::PZD3_OUT) == 113 && group(d, fb::PZD3_OUT + 1) == 2104
+        })?;
+    c.check(
+        "PPO2, WrPZD3 = F0.13, RdPZD3 = D0.04: the drive's 51.05 shows 113 and 51.06 2104",
+        shown,
+    );
+    let _ = sim
+        .drive_now()
+        .set_at_panel(fieldbus::code(fb::PZD3_OUT).0, 114);
+    let _ = sim
+        .drive_now()
+        .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
+    let kept = wait_drive(sim, 1_500_000, |d| {
+        group(d, fb::PAR_REFRESH) == fieldbus::DONE && group(d, fb::PZD3_OUT) == 113
+    })?;
+    c.check(
+        "51.05 = 114 at the panel and a refresh: not taken, 51.05 shows 113 again",
+        kept,
+    );
     Ok(Vec::new())
 }
 

@@ -369,11 +369,14 @@ pub struct Addressing {
 }
 
 /// The status after a failed RAM test at power-up (seed 000 line 685, "上电常亮 MCU、DP 芯片
-/// RAM 异常"): Run steady on, offline; the adapter does not start.
+/// RAM 异常": Run steady on), which is also seed 004's "PROFIBUS communication ASIC
+/// initialisation error" (its error LED at 4 Hz, line 1475): offline; the adapter does not
+/// start.
 pub fn ram_fault_status() -> Status {
     Status {
         leds: Leds {
             run: Led::On,
+            error: Led::Blink4Hz,
             offline: Led::On,
             ..Leds::OFF
         },
@@ -1543,15 +1546,18 @@ mod tests {
         assert!(writes.iter().any(|w| w.contains("DataExch")), "{writes:?}");
     }
 
-    /// Seed 000 line 685: after a RAM fault at power-up the Run LED is steady on (its only
-    /// steady-on meaning) and the adapter shows itself offline, nothing else lit.
+    /// Seed 000 line 685 and seed 004 line 1475: after a RAM fault at power-up (the MCU's and
+    /// the transceiver's RAM: seed 004's "ASIC initialisation error") the Run LED is steady on
+    /// (its only steady-on meaning), the error LED blinks 4 Hz (its only 4 Hz meaning), and the
+    /// adapter shows itself offline, nothing else lit.
     #[test]
-    fn seed_000_line_685_a_ram_fault_lights_run_steady() {
+    fn seed_000_line_685_seed_004_line_1475_a_ram_fault_lights_run_steady_and_error_4_hz() {
         let s = ram_fault_status();
         assert_eq!(
             s.leds,
             Leds {
                 run: Led::On,
+                error: Led::Blink4Hz,
                 offline: Led::On,
                 ..Leds::default()
             }

@@ -22,6 +22,7 @@ use profidrive::ppo::Ppo;
 use profidrive::prm::{FailSafeMode, OperationMode, UserPrm};
 use profidrive::profile::{control as pd, status as pds};
 use profidrive::words::{control, status};
+use profirust::dp::DiagnosticFlags;
 use std::io;
 
 const BAUD: Baud = Baud::B1500000;
@@ -359,6 +360,29 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
         "51.05 = 114 at the panel and a refresh: not taken, 51.05 shows 113 again",
         kept,
     );
+
+    // Issue 30, the LEDs (README "Differences from the manuals"): a RdPZD code that is no drive
+    // parameter (0x1234) is refused at Set_Prm, the DP way: Prm_Fault, no data exchange, Net
+    // blinking (seed 000: DP communication wrong), Run off, error 2 Hz (seed 004: user
+    // parameter data wrong), not seed 000's FAQ's Net on with Run 2 Hz.
+    let mut prm = UserPrm::DEFAULT;
+    prm.rd_pzd[0] = FunctionCode(0x1234);
+    let exchanging = start(sim, setup(Ppo::Ppo1, prm))?;
+    let end = sim.now + 500_000 * TICKS_PER_US;
+    let shown = sim.run_until(end, |s| {
+        let l = s.bridge.status.leds;
+        (l.net, l.run, l.error) == (Led::Blink2Hz, Led::Off, Led::Blink2Hz)
+    })?;
+    let leds = sim.bridge.status.leds;
+    c.check(
+        format!(
+            "RdPZD2 = 0x1234 (no drive parameter): Prm_Fault, Net 2 Hz, Run off, error 2 Hz (net {:?}, run {:?}, error {:?})",
+            leds.net, leds.run, leds.error
+        ),
+        !exchanging && shown && super::support::diag_flags(sim).is_some_and(|f| f.contains(DiagnosticFlags::PARAMETER_FAULT)),
+    );
+    let ok = start(sim, setup(Ppo::Ppo1, UserPrm::DEFAULT))?;
+    c.check("the default user parameters again: data exchange", ok);
     Ok(Vec::new())
 }
 

@@ -301,18 +301,13 @@ fn sync_fieldbus_group<U: Read<u8> + Write<u8>>(app: &mut DriveApp<U>) {
             .fieldbus_mut()
             .show(fieldbus::index::DP_MODE, shown);
     }
-    // PZD3-10 in force: 915/916 in the PROFIdrive modes; the master's RdPZD/WrPZD (its user
-    // parameters) in the vendor mode, where the panel cannot change them (README "Differences
-    // from the manuals"). Before a configuration nothing is in force: the drive's settings
-    // stay as they are.
-    let (mut out, mut inp) = (app.params().pzd_out, app.params().pzd_in);
-    if app.ppo().is_some() && !app.prm().operation.translates() {
-        let number = |code| profidrive::pd_params::parameter_number(code).unwrap_or(0);
-        for k in 2..out.len() {
-            out[k] = number(app.prm().wr_pzd[k - 1]);
-            inp[k] = number(app.prm().rd_pzd[k - 1]);
-        }
-    }
+    // PZD3-10 in force (`mapping_numbers`): the master's RdPZD/WrPZD in the vendor mode, where
+    // the panel cannot change them (README "Differences from the manuals"). Before a
+    // configuration nothing is in force: the drive's settings stay as they are.
+    let (out, inp) = match app.ppo() {
+        Some(_) => app.mapping_numbers(),
+        None => (app.params().pzd_out, app.params().pzd_in),
+    };
     let ppo = app.ppo().map(|p| u16::from(p.number()));
     let group = app.drive_mut().fieldbus_mut();
     group.show_mapping(&out[2..], &inp[2..]);

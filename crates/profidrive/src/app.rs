@@ -82,6 +82,9 @@ pub struct ProfidriveApp<D> {
     /// The vendor control word's fault reset bit in the last outputs applied (its rise resets a
     /// lost link's fault in 945).
     vendor_reset: bool,
+    /// The user parameters' WrPZD/RdPZD as PROFIdrive numbers, PZD1..PZD10 (915/916's layout),
+    /// worked out once a Set_Prm: the drive's group 51 shows them in the vendor mode.
+    vendor_numbers: ([u16; MAX_PZD_WORDS], [u16; MAX_PZD_WORDS]),
     /// The PROFIdrive parameter server on DP-V1.
     dpv1: Dpv1Server,
     /// The drive's 51.21 DP MODE asks for DP-V1: Set_Prm carries DPV1_Status_1-3 before the
@@ -119,6 +122,7 @@ impl<D: Drive> ProfidriveApp<D> {
             link_diag: LinkDiagnosis::new(),
             diag_changed: false,
             vendor_reset: false,
+            vendor_numbers: ([0; MAX_PZD_WORDS], [0; MAX_PZD_WORDS]),
             profile: Profile::new(),
             drive_status: 0,
             rated_reference: 0,
@@ -139,6 +143,17 @@ impl<D: Drive> ProfidriveApp<D> {
 
     pub fn dp_mode_dpv1(&self) -> bool {
         self.dp_mode_dpv1
+    }
+
+    /// The PZD mapping in force as PROFIdrive numbers, PZD1..PZD10 out and in (915/916's
+    /// layout): 915/916 in the PROFIdrive modes, the user parameters' WrPZD/RdPZD in the
+    /// vendor mode.
+    pub fn mapping_numbers(&self) -> ([u16; MAX_PZD_WORDS], [u16; MAX_PZD_WORDS]) {
+        if self.prm.operation.translates() {
+            (self.params.pzd_out, self.params.pzd_in)
+        } else {
+            self.vendor_numbers
+        }
     }
 
     /// The DP-V1 parameter server (its figures).
@@ -524,6 +539,11 @@ impl<D: Drive> Application for ProfidriveApp<D> {
                             crate::codes::named::MAX_FREQUENCY,
                         ))));
                     }
+                }
+                let number = |code| crate::pd_params::parameter_number(code).unwrap_or(0);
+                for k in 1..MAX_PZD_WORDS {
+                    self.vendor_numbers.0[k] = number(prm.wr_pzd[k - 1]);
+                    self.vendor_numbers.1[k] = number(prm.rd_pzd[k - 1]);
                 }
                 self.prm = prm;
                 true

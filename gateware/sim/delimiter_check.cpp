@@ -48,14 +48,9 @@ int main(int argc, char** argv) {
     clock_index++;
     idle_inputs();
   };
-  // The reset is asynchronous: a falling rst_ni, then its release.
   idle_inputs();
-  top->rst_ni = 1;
-  top->eval();
-  top->rst_ni = 0;
-  top->eval();
-  top->rst_ni = 1;
-  top->eval();
+  top->clk_i = 0;
+  harness::reset(*top);
   for (int op; (op = in.op()) >= 0;) {
     switch (op) {
       case 'C':

@@ -13,6 +13,18 @@
 
 namespace harness {
 
+// The block's reset, asynchronous: a falling rst_ni, then its release (the first eval with
+// rst_ni low is no edge).
+template <class Top>
+void reset(Top& top) {
+  top.rst_ni = 1;
+  top.eval();
+  top.rst_ni = 0;
+  top.eval();
+  top.rst_ni = 1;
+  top.eval();
+}
+
 inline void fail(const char* what) {
   std::fprintf(stderr, "harness: %s\n", what);
   std::exit(2);

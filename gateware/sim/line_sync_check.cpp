@@ -14,16 +14,10 @@ int main(int argc, char** argv) {
   harness::Outputs out(argv[2]);
   auto ctx = std::make_unique<VerilatedContext>();
   auto top = std::make_unique<Vline_sync>(ctx.get());
-  // The reset is asynchronous: a falling rst_ni, then its release.
   auto reset = [&] {
-    top->rst_ni = 1;
-    top->eval();
-    top->rst_ni = 0;
     top->clk_i = 0;
     top->line_i = 1;
-    top->eval();
-    top->rst_ni = 1;
-    top->eval();
+    harness::reset(*top);
   };
   reset();
   for (int op; (op = in.op()) >= 0;) {

@@ -17,15 +17,9 @@ int main(int argc, char** argv) {
   auto ctx = std::make_unique<VerilatedContext>();
   auto top = std::make_unique<Vuart_tx>(ctx.get());
   uint8_t ram[256] = {};
-  // The reset is asynchronous: a falling rst_ni, then its release.
   auto reset = [&] {
-    top->rst_ni = 1;
-    top->eval();
-    top->rst_ni = 0;
     top->clk_i = 0;
-    top->eval();
-    top->rst_ni = 1;
-    top->eval();
+    harness::reset(*top);
   };
   auto clock = [&] {
     uint8_t addr = top->rd_addr_o;

@@ -245,15 +245,14 @@ impl<U: Read<u8> + Write<u8>> LinkedDrive<U> {
         Some((next - span, next))
     }
 
-    /// Right after a Data_Exchange's outputs were decided (and theirs went out): the read of
-    /// the in block that was due, or would be before the next outputs, goes now, where the DP
-    /// cycle leaves it the time. Returns whether it started.
+    /// Right after a Data_Exchange's outputs were decided (and theirs went out): a read of the
+    /// in block that is due goes now, where the DP cycle leaves it the time (one held back
+    /// from the span before these outputs is due by now). Returns whether it started.
     pub fn read_after_outputs(&mut self, now_us: u64) -> bool {
-        if self.job.is_some() || self.words == 0 || self.before_next_outputs().is_none() {
-            return false;
-        }
-        let periodic = self.read_at_us.map_or(0, |at| at + READ_PERIOD_US);
-        if periodic > now_us && self.next_read_us() == periodic {
+        let due = self
+            .read_at_us
+            .is_none_or(|at| at + READ_PERIOD_US <= now_us);
+        if self.job.is_some() || self.words == 0 || !due || self.before_next_outputs().is_none() {
             return false;
         }
         self.start_next(now_us);

@@ -334,7 +334,6 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     // Issue 30: in the vendor mode the drive's group 51 shows the RdPZD/WrPZD mapping in force
     // (PZD3 out F0.13 = 113, PZD3 in D0.04 = 2104), and a 51.05 set at the panel is not taken:
     // the master's user parameters rule, and the group shows them again.
-    let group = |d: &DriveSim, i: u8| d.read_register(fieldbus::code(i).0).unwrap_or(u16::MAX);
     let mut prm = UserPrm::DEFAULT;
     prm.wr_pzd[1] = FunctionCode(ACCEL_TIME);
     prm.rd_pzd[1] = FunctionCode(OUTPUT_CURRENT);
@@ -347,12 +346,7 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
         "PPO2, WrPZD3 = F0.13, RdPZD3 = D0.04: the drive's 51.05 shows 113 and 51.06 2104",
         shown,
     );
-    let _ = sim
-        .drive_now()
-        .set_at_panel(fieldbus::code(fb::PZD3_OUT).0, 114);
-    let _ = sim
-        .drive_now()
-        .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
+    set_at_panel_and_refresh(sim, fb::PZD3_OUT, 114);
     let kept = wait_drive(sim, 1_500_000, |d| {
         group(d, fb::PAR_REFRESH) == fieldbus::DONE && group(d, fb::PZD3_OUT) == 113
     })?;
@@ -384,6 +378,20 @@ pub fn vendor<F: Firmware>(sim: &mut CoSim<F>, c: &mut Checks, _: Baud) -> io::R
     let ok = start(sim, setup(Ppo::Ppo1, UserPrm::DEFAULT))?;
     c.check("the default user parameters again: data exchange", ok);
     Ok(Vec::new())
+}
+
+/// 51.`index` as the drive holds it (u16::MAX where it cannot be read).
+fn group(d: &DriveSim, index: u8) -> u16 {
+    d.read_register(fieldbus::code(index).0).unwrap_or(u16::MAX)
+}
+
+/// `value` set at the drive's panel in 51.`index`, then the refresh (51.27) that hands the
+/// group to the adapter.
+fn set_at_panel_and_refresh<F: Firmware>(sim: &mut CoSim<F>, index: u8, value: u16) {
+    let _ = sim.drive_now().set_at_panel(fieldbus::code(index).0, value);
+    let _ = sim
+        .drive_now()
+        .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
 }
 
 fn pd_request(label: RequestLabel, pnu: u16, index: u8, value: u32) -> [u16; 4] {
@@ -642,7 +650,6 @@ pub fn fieldbus_group<F: Firmware>(
     c.check("PPO2, PROFIdrive profile: data exchange", ok);
     let mut out = vec![0, 0, 0, 0, pd::READY, 0x2000, 0, 0, 0, 0];
     put(sim, &out);
-    let group = |d: &DriveSim, i: u8| d.read_register(fieldbus::code(i).0).unwrap_or(u16::MAX);
     let shown = wait(sim, 100_000, |_, d| {
         [1, 2, 3, 4, 21].map(|i| group(d, i)) == [fieldbus::MODULE_TYPE_PROFIBUS_DP, 8, 1500, 2, 0]
     })?;
@@ -737,12 +744,7 @@ pub fn fieldbus_group<F: Firmware>(
     );
 
     // The switch sets the address: a 51.02 from the panel does not move the adapter.
-    let _ = sim
-        .drive_now()
-        .set_at_panel(fieldbus::code(fb::NODE_ADDRESS).0, 20);
-    let _ = sim
-        .drive_now()
-        .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
+    set_at_panel_and_refresh(sim, fb::NODE_ADDRESS, 20);
     let kept = wait(sim, 1_000_000, |_, d| {
         group(d, fb::PAR_REFRESH) == fieldbus::DONE && group(d, fb::NODE_ADDRESS) == 8
     })?;
@@ -761,12 +763,7 @@ pub fn fieldbus_group<F: Firmware>(
         "switch 0, empty storage: address 126, and 51.02 shows it",
         shown && sim.bridge.status.address == 126,
     );
-    let _ = sim
-        .drive_now()
-        .set_at_panel(fieldbus::code(fb::NODE_ADDRESS).0, 30);
-    let _ = sim
-        .drive_now()
-        .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
+    set_at_panel_and_refresh(sim, fb::NODE_ADDRESS, 30);
     let t0 = sim.now_us();
     let moved = wait_drive(sim, 1_000_000, |d| {
         group(d, fb::PAR_REFRESH) == fieldbus::DONE

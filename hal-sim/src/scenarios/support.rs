@@ -193,6 +193,11 @@ pub fn refused<F: Firmware>(
         "no data exchange",
         sim.bridge.status.state != SlaveState::DataExch,
     );
+    // The firmware's status says the slave went back to Wait_Prm (a Cfg_Fault's slave left
+    // Wait_Cfg) before the master leaves: at 12 Mbit/s the master reads the fault within a few
+    // hundred microseconds, so the two would otherwise land in either order.
+    let end = sim.now + 50_000 * 48;
+    sim.run_until(end, |s| s.bridge.status.state == SlaveState::WaitPrm)?;
     sim.stop_master();
     sim.run_for_us(20_000)?;
     c.check(

@@ -67,6 +67,8 @@ module delimiter (
   // The character's place in the telegram (len 0 and expect by its delimiter at a start), and
   // whether it is appended.
   logic       appending;
+  // The character ends the telegram (status_o says how).
+  logic       ends;
   logic [7:0] len_base, expect_base, first_now, index_fcs;
   logic       has_fcs, in_body;
 
@@ -88,6 +90,7 @@ module delimiter (
     wr_addr_o    = len_q;
     wr_data_o    = char_byte_i;
     appending    = 1'b0;
+    ends         = 1'b0;
     len_base     = len_q;
     expect_base  = expect_q;
     first_now    = first_q;
@@ -105,10 +108,8 @@ module delimiter (
       if (char_i) begin
         if (inside_q) begin
           if (char_idle_before_i > gap_q) begin
-            deliver_o = 1'b1;
-            status_o  = StGap;
-            end_o     = char_end_i;
-            inside_d  = 1'b0;
+            ends     = 1'b1;
+            status_o = StGap;
           end else begin
             appending = 1'b1;
           end
@@ -121,10 +122,8 @@ module delimiter (
           fcs_d    = '0;
           fcs_ok_d = 1'b0;
           if (char_error_i != 3'd0) begin
-            deliver_o = 1'b1;
-            status_o  = {1'b0, char_error_i};
-            end_o     = char_end_i;
-            inside_d  = 1'b0;
+            ends     = 1'b1;
+            status_o = {1'b0, char_error_i};
           end else begin
             appending = 1'b1;
             case (char_byte_i)
@@ -139,10 +138,8 @@ module delimiter (
                 wr_o      = 1'b1;
                 wr_addr_o = 8'd0;
                 len_d     = 8'd1;
-                deliver_o = 1'b1;
-                status_o  = StBadDelimiter;
-                end_o     = char_end_i;
-                inside_d  = 1'b0;
+                ends     = 1'b1;
+                status_o = StBadDelimiter;
               end
             endcase
             expect_d = expect_base;
@@ -152,10 +149,8 @@ module delimiter (
 
       if (appending) begin
         if (char_error_i != 3'd0) begin
-          deliver_o = 1'b1;
-          status_o  = {1'b0, char_error_i};
-          end_o     = char_end_i;
-          inside_d  = 1'b0;
+          ends     = 1'b1;
+          status_o = {1'b0, char_error_i};
         end else begin
           wr_o      = 1'b1;
           wr_addr_o = len_base;
@@ -174,22 +169,16 @@ module delimiter (
           end
           if (first_now == SD2 && len_base == 8'd1
               && (char_byte_i < 8'd4 || char_byte_i > 8'd249)) begin
-            deliver_o = 1'b1;
-            status_o  = StBadLength;
-            end_o     = char_end_i;
-            inside_d  = 1'b0;
+            ends     = 1'b1;
+            status_o = StBadLength;
           end else if (first_now == SD2 && len_base == 8'd1) begin
             le_d = char_byte_i;
           end else if (first_now == SD2 && len_base == 8'd2 && char_byte_i != le_q) begin
-            deliver_o = 1'b1;
-            status_o  = StLengthMismatch;
-            end_o     = char_end_i;
-            inside_d  = 1'b0;
+            ends     = 1'b1;
+            status_o = StLengthMismatch;
           end else if (first_now == SD2 && len_base == 8'd3 && char_byte_i != SD2) begin
-            deliver_o = 1'b1;
-            status_o  = StLengthMismatch;
-            end_o     = char_end_i;
-            inside_d  = 1'b0;
+            ends     = 1'b1;
+            status_o = StLengthMismatch;
           end else begin
             if (first_now == SD2 && len_base == 8'd2) begin
               // LE was checked to be at most 249: LE + 6 fits.
@@ -197,9 +186,7 @@ module delimiter (
               expect_base = le_q + 8'd6;
             end
             if (expect_base != 8'd0 && len_base + 8'd1 >= expect_base) begin
-              deliver_o = 1'b1;
-              end_o     = char_end_i;
-              inside_d  = 1'b0;
+              ends = 1'b1;
               if (!has_fcs)                 status_o = StGood;
               else if (!fcs_ok_d)           status_o = StBadFcs;
               else if (char_byte_i != ED)   status_o = StNoEnd;
@@ -207,6 +194,13 @@ module delimiter (
             end
           end
         end
+      end
+
+      // A character that ends the telegram delivers it, at its end tick.
+      if (ends) begin
+        deliver_o = 1'b1;
+        end_o     = char_end_i;
+        inside_d  = 1'b0;
       end
 
       // on_idle, after the character.

@@ -39,6 +39,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let runs: Vec<(Block, Vec<Case>)> = vec![
         (blocks::line_sync(0), blocks::line_sync_cases(0, quick)),
         (blocks::line_sync(3), blocks::line_sync_cases(3, quick)),
+        (blocks::char_reader(), blocks::char_reader_cases(quick)),
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
     ];
@@ -83,7 +84,7 @@ pub fn run(args: &[String]) -> Result<()> {
             }
         }
         println!(
-            "  {:<22} against {:<30} cases {:>3}  clocks {:>11}  mismatches {}",
+            "  {:<24} against {:<32} cases {:>3}  clocks {:>11}  mismatches {}",
             block.build_name(),
             block.twin,
             block_cases.len(),

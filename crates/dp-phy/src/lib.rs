@@ -27,6 +27,7 @@
 
 pub mod autobaud;
 pub mod bus;
+pub mod char_reader;
 pub mod delimiter;
 pub mod edge_rx;
 pub mod filter;

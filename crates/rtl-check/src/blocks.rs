@@ -4,6 +4,9 @@
 //! calls, so the two sides see one stimulus by construction. The model runs strict: one tick a
 //! clock, no fast mode.
 
+mod char_reader;
+pub use char_reader::{char_reader, char_reader_cases};
+
 use crate::{Block, Case, Trace};
 use dp_consts::Baud;
 use dp_phy::delimiter::{Delimiter, Delivery, Status};

@@ -21,7 +21,7 @@ pub fn build(block: &Block, gateware: &Path, out: &Path) -> io::Result<PathBuf> 
         .arg("--top-module")
         .arg(block.top)
         .arg("-CFLAGS")
-        .arg(format!("-O2 -I{}", sim.display()))
+        .arg(format!("-O2 -I{}{}", sim.display(), param_defines(block)))
         .arg("--Mdir")
         .arg(&mdir)
         .args(["-o", "check"]);
@@ -42,6 +42,15 @@ pub fn build(block: &Block, gateware: &Path, out: &Path) -> io::Result<PathBuf> 
         )));
     }
     Ok(mdir.join("check"))
+}
+
+/// The block's parameters for its harness too, as `PARAM_<name>` (widths it decodes).
+fn param_defines(block: &Block) -> String {
+    block
+        .params
+        .iter()
+        .map(|(param, value)| format!(" -DPARAM_{param}={value}"))
+        .collect()
 }
 
 /// Runs `binary` on `case`'s stimulus in `work`; returns what the RTL put out, per clock and

@@ -14,20 +14,20 @@
 //!
 //! Why: the replay keeps up to 16 or 32 edge times and walks them all in one clock, with
 //! multiplications; ten rate channels of it cannot be an FPGA's registers, let alone reach
-//! 48 MHz. The reader is an adder, two comparisons and a shift register a clock.
+//! 48 MHz. The reader updates each register with one adder or comparison from registers.
 //!
 //! ```text
-//!  line   ‾‾|______|‾‾‾‾‾‾|___|‾|_______...      phase ph runs 0..modulo in each bit (inc a
-//!           ^start  bit 1  bit 2  ...              clock); high counts the units at 1; at the
-//!           |<--modulo-->|                         bit's end: bit = 2*high > modulo (= : tie)
+//!  line   ‾‾|______|‾‾‾‾‾‾|___|‾|_______...      rem counts a bit's phase down by inc a
+//!           ^start  bit 1  bit 2  ...              clock; lead/lag: the bit's units high less
+//!           |<--modulo-->|                         low, were the line to stay high/low to its
+//!                                                  end; at the end the bit is one's sign (0: tie)
 //! ```
 //!
 //! Phase is in the units of a [`BitTiming`] reduced by the greatest common divisor of its
 //! `inc` and `modulo` ([`BitTiming::reduced`]): every comparison here is between sums of
 //! `inc` and multiples of `modulo`, so the reduction changes no decision, and the RTL's
-//! registers (gateware/rtl/char_reader.v) stay as narrow as the rate allows. Each register is
-//! one adder's update a clock at 48 MHz: the comparisons with fractions of a bit are with
-//! thresholds worked out once per rate ([`CharReader::new`]).
+//! registers (gateware/rtl/char_reader.v) stay as narrow as the rate allows. The fractions and
+//! sums of a bit it compares with and adds are worked out once per rate ([`CharReader::new`]).
 
 use crate::BitTiming;
 

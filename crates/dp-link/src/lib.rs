@@ -45,6 +45,27 @@ pub struct NvRecord {
     pub no_add_chg: bool,
 }
 
+/// The PROFIdrive settings the storage keeps when 971 says so (seed 004 line 921): 927 PKW
+/// rights, 928 PZD rights, 930 operating mode, 933-937 and 939-943 the selectors of control
+/// and status word bits 11-15.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NvParams {
+    pub pkw_rights: u16,
+    pub pzd_rights: u16,
+    pub operating_mode: u16,
+    pub control_bit_selectors: [u16; 5],
+    pub status_bit_selectors: [u16; 5],
+}
+
+/// What the storage holds at power-up: each record, if it was ever written.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NvContents {
+    pub address: Option<NvRecord>,
+    pub params: Option<NvParams>,
+}
+
 /// Transceiver to MCU.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -42,6 +42,8 @@ pub fn run(args: &[String]) -> Result<()> {
         (blocks::char_reader(), blocks::char_reader_cases(quick)),
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
+        (blocks::watchdog(24), blocks::watchdog_cases(24, quick)),
+        (blocks::watchdog(38), blocks::watchdog_cases(38, quick)),
     ];
     let (mut cases, mut clocks, mut mismatches) = (0usize, 0u64, 0usize);
     for (block, block_cases) in &runs {

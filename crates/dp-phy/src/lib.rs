@@ -38,6 +38,7 @@ pub mod timing;
 pub mod trace;
 pub mod transceiver;
 pub mod uart;
+pub mod watchdog;
 
 pub use dp_consts::Baud;
 pub use timing::BitTiming;

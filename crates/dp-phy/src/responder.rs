@@ -39,6 +39,7 @@
 //! after the request's last stop bit (the header is decoded while the telegram arrives); the
 //! frame is built by the same `fdl` emitter the firmware uses.
 
+use crate::watchdog::Watchdog;
 use crate::Tick;
 use dp_consts::{diag, BROADCAST_ADDRESS, MAX_DATA_UNIT_LEN, MAX_TELEGRAM_LEN};
 use dp_link::{FromAdapter, Regs, SlaveState};
@@ -105,7 +106,8 @@ pub struct ResponderQ {
     /// The event the MCU's registers must have seen before the answers that depend on its
     /// decision are given again.
     pub decision: Option<u32>,
-    pub watchdog_deadline: Option<Tick>,
+    /// The DP watchdog (restarted by the owner's requests).
+    pub watchdog: Watchdog,
     /// MSAC1 (SAP 51): the event of the request whose response is awaited, and the response
     /// once the MCU wrote it (the next poll takes it).
     pub msac1_for: Option<u32>,
@@ -137,7 +139,7 @@ pub const RESPONDER_RESET: ResponderQ = ResponderQ {
     sent: 0,
     // Nothing is answered but FDL_Status until the firmware's first registers arrive.
     decision: Some(1),
-    watchdog_deadline: None,
+    watchdog: Watchdog::STOPPED,
     msac1_for: None,
     msac1: None,
 };
@@ -224,8 +226,7 @@ pub fn next(input: &Input, q: &ResponderQ, clocks_per_us: Tick) -> (Output, Resp
     let mut out = Output::NONE;
     match *input {
         Input::Clock { now } => {
-            if d.watchdog_deadline.is_some_and(|at| now >= at) {
-                d.watchdog_deadline = None;
+            if d.watchdog.expire(now) {
                 d.sent = d.sent.wrapping_add(1);
                 d.decision = Some(d.sent);
                 out.watchdog_expired = Some(d.sent);
@@ -235,6 +236,11 @@ pub fn next(input: &Input, q: &ResponderQ, clocks_per_us: Tick) -> (Output, Resp
         Input::Telegram { now, bytes } => telegram(&mut d, &mut out, now, bytes, clocks_per_us),
     }
     (out, d)
+}
+
+/// The DP watchdog's clocks for `us` microseconds.
+fn watchdog_clocks(us: u32, clocks_per_us: Tick) -> Tick {
+    Tick::from(us) * clocks_per_us
 }
 
 fn pending(d: &ResponderQ) -> bool {
@@ -250,12 +256,12 @@ fn write_buffer(d: &mut ResponderQ, now: Tick, write: &FromAdapter, clocks_per_u
             d.regs = regs;
             if !pending(d) {
                 d.decision = None;
-                d.watchdog_deadline = match (regs.owner, regs.watchdog_us) {
+                match (regs.owner, regs.watchdog_us) {
                     (Some(_), Some(us)) => d
-                        .watchdog_deadline
-                        .or(Some(now + Tick::from(us) * clocks_per_us)),
-                    _ => None,
-                };
+                        .watchdog
+                        .start_if_stopped(now, watchdog_clocks(us, clocks_per_us)),
+                    _ => d.watchdog.stop(),
+                }
             }
         }
         FromAdapter::Inputs(bytes) => d.inputs = Buffer::from(bytes),
@@ -316,7 +322,7 @@ fn telegram(d: &mut ResponderQ, out: &mut Output, now: Tick, bytes: &[u8], clock
     }
     if d.regs.owner == Some(request.sa) {
         if let Some(us) = d.regs.watchdog_us {
-            d.watchdog_deadline = Some(now + Tick::from(us) * clocks_per_us);
+            d.watchdog.start(now, watchdog_clocks(us, clocks_per_us));
         }
     }
     let (answer, hand_over) = decide(d, &request, service);
@@ -529,7 +535,7 @@ impl Responder {
 
     /// When the watchdog expires, if it runs.
     pub fn deadline(&self) -> Option<Tick> {
-        self.q.watchdog_deadline
+        self.q.watchdog.deadline
     }
 
     /// min TSDR for the transmitter, in bit times.

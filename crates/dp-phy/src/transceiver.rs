@@ -35,6 +35,7 @@ use crate::delimiter::{Delimiter, Delivery, RxTelegram};
 use crate::edge_rx::{EdgeRx, EdgeRxQ, LineEdges, EDGE_RX_RESET};
 use crate::filter::{self, FilterQ, FILTER_RESET};
 use crate::uart::{RxChar, UartTx};
+use crate::watchdog::Watchdog;
 use crate::{BitTiming, Tick};
 use dp_consts::{Baud, MIN_TSDR_BITS, SC};
 
@@ -146,7 +147,8 @@ pub struct Transceiver {
     /// The last tick the transmitter drove the line: a character that started by then is the
     /// transceiver's own echo.
     drove_until: Tick,
-    watchdog_at: Tick,
+    /// The baud-control watchdog, and its clocks.
+    watchdog: Watchdog,
     watchdog_clocks: Tick,
     min_tsdr_bits: u8,
     /// A response waits for this tick (and for min TSDR of idle line).
@@ -178,7 +180,7 @@ impl Transceiver {
             fallback: None,
             last_end: 0,
             drove_until: 0,
-            watchdog_at: Tick::MAX,
+            watchdog: Watchdog::STOPPED,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
             min_tsdr_bits: MIN_TSDR_BITS,
             pending_not_before: None,
@@ -355,7 +357,7 @@ impl Transceiver {
             }
             // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
             // the watchdog, so it expires only between telegrams.
-            if now >= self.watchdog_at && !self.delimiter.inside() {
+            if !self.delimiter.inside() && self.watchdog.expire(now) {
                 self.stats.watchdog_expiries += 1;
                 self.search_again(&mut out);
             }
@@ -433,7 +435,7 @@ impl Transceiver {
                             }
                         }
                     }
-                    self.watchdog_at = self.now + self.watchdog_clocks;
+                    self.watchdog.start(self.now, self.watchdog_clocks);
                 } else {
                     self.stats.telegrams_bad += 1;
                     if let BaudState::Trial(_) = self.state {
@@ -462,7 +464,7 @@ impl Transceiver {
         out.baud_changed = true;
         self.use_rate(baud);
         if self.fallback.is_none() {
-            self.watchdog_at = self.now + self.watchdog_clocks;
+            self.watchdog.start(self.now, self.watchdog_clocks);
         }
     }
 
@@ -493,7 +495,7 @@ impl Transceiver {
         self.pending_not_before = None;
         self.rx_q = EDGE_RX_RESET;
         self.delimiter.reset();
-        self.watchdog_at = Tick::MAX;
+        self.watchdog.stop();
     }
 
     /// Ticks that a constant `line` lets pass with nothing but counters moving.
@@ -519,7 +521,7 @@ impl Transceiver {
             quiet = quiet.min(gap_at.saturating_sub(now));
         }
         if !self.delimiter.inside() {
-            quiet = quiet.min(self.watchdog_at.saturating_sub(now));
+            quiet = quiet.min(self.watchdog.left(now).unwrap_or(Tick::MAX));
         }
         if let Some(start) = self.response_start() {
             quiet = quiet.min(start.saturating_sub(now));

@@ -5,7 +5,9 @@
 //! clock, no fast mode.
 
 mod char_reader;
+mod watchdog;
 pub use char_reader::{char_reader, char_reader_cases};
+pub use watchdog::{watchdog, watchdog_cases};
 
 use crate::{Block, Case, Trace};
 use dp_consts::Baud;
@@ -25,7 +27,7 @@ pub const TRANSCEIVER_BLOCKS: [(&str, bool); 8] = [
     ("edge_rx", false),
     ("delimiter", true),
     ("uart_tx (min TSDR, driver enable)", true),
-    ("watchdogs", false),
+    ("watchdogs (baud, DP)", true),
     ("responder", false),
     ("top", false),
 ];

@@ -5,8 +5,8 @@
 //! idle line with that rate's glitches removed (a pulse of at most half its bit: a real one
 //! lasts a bit), and starts a measurement at a fall after TSYN (33 of its bits) of idle line. At
 //! the middle of the stop bit (10.5 of its bits after the start edge; at its end if the line is
-//! low there) it replays the recorded edges: each bit is the level the line held for longer
-//! within it (a glitch of the rate is shorter than half a bit, so it cannot turn one, nor can an
+//! low there) it decides on the character it read as it came ([`CharReader`], the replay of its
+//! edges in a few registers): each bit is the level the line held for longer within it (a glitch of the rate is shorter than half a bit, so it cannot turn one, nor can an
 //! edge it moved; a tie is nothing), the edges off the bit grid must be one glitch's at most, and
 //! the character must have a start bit, even parity and a stop bit, and be a start delimiter
 //! (SD1 `10`, SD2 `68`, SD3 `A2`, SD4 `DC`). Then the rate and the decoded first character are
@@ -30,21 +30,23 @@
 //! glitch, starts a measurement, replacing one under way (which a glitch started). A fall after
 //! a shorter high, inside the start bit, is a second candidate start: a high glitch in the start
 //! bit and a low glitch just before it leave the same edges, so the decision reads the
-//! character from both starts (two different delimiters are none). A channel works on edges and
-//! on its decision tick only, so fast mode stops there, and passes over decisions that cannot
+//! character from both starts, a reader each (two different delimiters are none). A channel
+//! works on edges and on its decision tick only, its readers passing the clocks between at once
+//! ([`CharReader::advance`]), so fast mode stops there, and passes over decisions that cannot
 //! show while a rate is known ([`AutoBaud::quiet_for`], [`AutoBaud::retire`]).
 //!
 //! A detection is only a candidate: the lock is confirmed by the transceiver when the whole
 //! telegram arrives without error. Anything that fails a check is dropped and that rate's
 //! channel listens again.
 
+use crate::char_reader::{CharReader, CharReaderQ, Reading, CHAR_READER_RESET};
 use crate::filter::FilterOut;
 use crate::Tick;
 use dp_consts::{Baud, SD1, SD2, SD3, SD4, TSYN_BITS};
 
-/// Edges one measurement keeps at most: a character's 10 changes of level, and the glitches of
-/// the rate that are still to be cancelled.
-const MAX_EDGES: usize = 16;
+/// Edges one measurement takes at most: a character's 10 changes of level, and the glitches of
+/// the rate that are still to be cancelled; more, and it is not one of this rate.
+const MAX_EDGES: u8 = 16;
 
 /// Glitches a delimiter may hold, read from either start: one. The search decides the rate, so
 /// it is stricter than the receiver, which takes two in a character.
@@ -81,8 +83,11 @@ pub struct ChannelQ {
     pub measuring: bool,
     /// The start edge of the measurement.
     pub t0: Tick,
-    /// Edge times relative to `t0`.
-    pub edges: [u32; MAX_EDGES],
+    /// The character read as it arrives ([`CharReader`]): from the start edge, and from the
+    /// second candidate start (with `alt`), up to tick `read_until`.
+    pub readers: [CharReaderQ; 2],
+    pub read_until: Tick,
+    /// Edges since the start edge.
     pub n_edges: u8,
     /// A second candidate start, relative to `t0` (0: none): a fall inside the start bit after a
     /// high no longer than a glitch. Either fall may be the start (a high glitch in the start
@@ -97,7 +102,8 @@ pub struct ChannelQ {
 const CHANNEL_RESET: ChannelQ = ChannelQ {
     measuring: false,
     t0: 0,
-    edges: [0; MAX_EDGES],
+    readers: [CHAR_READER_RESET; 2],
+    read_until: 0,
     n_edges: 0,
     alt: 0,
     decide_at: 0,
@@ -167,6 +173,8 @@ pub struct AutoBaud {
     /// Idle clocks that make TSYN at each rate (half a bit of tolerance for sampling and clock
     /// offset).
     tsyn: [Tick; RATES],
+    /// Each rate's character reader.
+    readers: [CharReader; RATES],
 }
 
 impl AutoBaud {
@@ -181,6 +189,7 @@ impl AutoBaud {
             }),
             glitch: timings.map(|t| crate::filter::glitch_len_for(t.clocks_per_bit()).into()),
             tsyn: timings.map(|t| t.clocks_for(2 * TSYN_BITS as u64 - 1, 2)),
+            readers: timings.map(CharReader::new),
         }
     }
 
@@ -232,7 +241,7 @@ impl AutoBaud {
             if heard.is_some_and(|b| b.index() == r) {
                 continue;
             }
-            let decided = self.decide(r, c);
+            let decided = self.decide(r, c, now, level);
             if heard.is_some() && decided.is_err() {
                 continue;
             }
@@ -264,27 +273,38 @@ impl AutoBaud {
                 let after_glitch = now - q.last_edge.min(now) <= self.glitch[r];
                 if !rose && !after_glitch && now - q.high_since[r].min(now) >= self.tsyn[r] {
                     changed = true;
+                    let mut from_start = CHAR_READER_RESET;
+                    self.readers[r].start(&mut from_start);
                     *c = ChannelQ {
                         measuring: true,
                         t0: now,
+                        readers: [from_start, CHAR_READER_RESET],
+                        read_until: now,
                         decide_at: now + self.windows[r].stop_middle,
                         ..CHANNEL_RESET
                     };
                 } else if c.measuring {
-                    if c.n_edges as usize == MAX_EDGES {
+                    if c.n_edges == MAX_EDGES {
                         // More edges than a character and its glitches have: not one of this rate.
                         changed = true;
                         c.measuring = false;
                     } else {
-                        let at = (now - c.t0).min(u32::MAX as u64) as u32;
-                        c.edges[c.n_edges as usize] = at;
                         c.n_edges += 1;
+                        // The clocks before the edge at the level before it, then its own.
+                        self.read_to(r, c, now - 1, !rose);
+                        let reader = &self.readers[r];
+                        reader.clock(&mut c.readers[0], rose, true);
+                        c.read_until = now;
+                        let at = (now - c.t0).min(u32::MAX as u64) as u32;
                         let w = &self.windows[r];
                         if !rose && after_glitch && u64::from(at) * w.inc < w.modulo {
                             changed = true;
                             c.alt = at;
+                            reader.start(&mut c.readers[1]);
                             c.decide_at = now + w.stop_middle;
                             c.deferred = false;
+                        } else if c.alt != 0 {
+                            reader.clock(&mut c.readers[1], rose, true);
                         }
                     }
                 }
@@ -318,15 +338,39 @@ impl AutoBaud {
         q.measuring = deadline != Tick::MAX;
     }
 
-    /// The character channel `r` measured, each bit taken by the level it held longer: read
-    /// from its start and, if it has one, from its second candidate start. Two different
-    /// delimiters are none (the line does not say which it was).
-    fn decide(&self, r: usize, c: &ChannelQ) -> Result<Detection, Reject> {
-        let from_start = self.read_from(r, c, 0);
+    /// Channel `r`'s readers through tick `until`, the line at `level` since the last tick
+    /// they took.
+    fn read_to(&self, r: usize, c: &mut ChannelQ, until: Tick, level: bool) {
+        let n = until.saturating_sub(c.read_until);
+        let reader = &self.readers[r];
+        reader.advance(&mut c.readers[0], level, n);
+        if c.alt != 0 {
+            reader.advance(&mut c.readers[1], level, n);
+        }
+        c.read_until = c.read_until.max(until);
+    }
+
+    /// The character channel `r` measured by `now`, the line at `level`, each bit taken by the
+    /// level it held longer: read from its start and, if it has one, from its second
+    /// candidate start. Two different delimiters are none (the line does not say which it
+    /// was).
+    fn decide(
+        &self,
+        r: usize,
+        c: &mut ChannelQ,
+        now: Tick,
+        level: bool,
+    ) -> Result<Detection, Reject> {
+        self.read_to(r, c, now, level);
+        let reader = &self.readers[r];
+        let from_start = delimiter_read(reader.read(&c.readers[0], level));
         let (byte, offset) = if c.alt == 0 {
             (from_start?, 0)
         } else {
-            match (from_start, self.read_from(r, c, c.alt)) {
+            match (
+                from_start,
+                delimiter_read(reader.read(&c.readers[1], level)),
+            ) {
                 (Ok(a), Ok(b)) if a != b => return Err(Reject::OffGrid),
                 // The first start when both read it: the receiver goes on from the middle of
                 // its stop bit, and takes a next start that came before the decision.
@@ -343,41 +387,6 @@ impl AutoBaud {
             start,
             end: start + w.stop_end,
         })
-    }
-
-    /// The start delimiter channel `r` measured from `offset` after its start (a fall).
-    fn read_from(&self, r: usize, c: &ChannelQ, offset: u32) -> Result<u8, Reject> {
-        let w = &self.windows[r];
-        let mut scaled = [0u64; MAX_EDGES];
-        let mut n = 0;
-        for &e in c.edges[..c.n_edges as usize]
-            .iter()
-            .filter(|&&e| e > offset)
-        {
-            let at = u64::from(e - offset) * w.inc;
-            if at >= 11 * w.modulo {
-                break;
-            }
-            scaled[n] = at;
-            n += 1;
-        }
-        // Low from the start edge; a glitch of the rate is shorter than half a bit, so a tie
-        // is none of it.
-        let edges = &scaled[..n];
-        let shift =
-            crate::uart::bits_by_longer_level(edges, false, w.modulo, 11).ok_or(Reject::OffGrid)?;
-        if crate::uart::glitches_off_grid(edges, w.modulo) > MAX_GLITCHES {
-            return Err(Reject::OffGrid);
-        }
-        let byte = (shift >> 1) as u8;
-        let parity_ok = (shift >> 9 & 1 == 1) == crate::uart::parity_bit(byte);
-        if shift & 1 != 0 || shift >> 10 & 1 != 1 || !parity_ok {
-            return Err(Reject::NotAChar);
-        }
-        if ![SD1, SD2, SD3, SD4].contains(&byte) {
-            return Err(Reject::NotADelimiter);
-        }
-        Ok(byte)
     }
 
     /// Ticks with the line constant at `level` before the search decides anything that
@@ -412,6 +421,24 @@ impl AutoBaud {
         }
         self.update_deadline(q);
     }
+}
+
+/// The start delimiter a reading is, if it is one: a tie or more than one glitch off the grid
+/// is no character of the rate; then start, parity and stop bits, then the delimiters.
+fn delimiter_read(reading: Reading) -> Result<u8, Reject> {
+    let shift = reading.bits.ok_or(Reject::OffGrid)?;
+    if u32::from(reading.glitches) > MAX_GLITCHES {
+        return Err(Reject::OffGrid);
+    }
+    let byte = (shift >> 1) as u8;
+    let parity_ok = (shift >> 9 & 1 == 1) == crate::uart::parity_bit(byte);
+    if shift & 1 != 0 || shift >> 10 & 1 != 1 || !parity_ok {
+        return Err(Reject::NotAChar);
+    }
+    if ![SD1, SD2, SD3, SD4].contains(&byte) {
+        return Err(Reject::NotADelimiter);
+    }
+    Ok(byte)
 }
 
 /// Whether the decision of channel `r` cannot show, the line staying at `level`: with the

@@ -11,6 +11,7 @@
 
 use crate::{check_flags, project_root, qemu_test::ensure_debian_tool};
 use anyhow::{bail, Context, Result};
+use dp_consts::Baud;
 use rtl_check::{blocks, first_event_mismatch, first_mismatch, verilator, write_vcd, Block, Case};
 use std::path::Path;
 
@@ -36,15 +37,38 @@ pub fn run(args: &[String]) -> Result<()> {
         other => bail!("a transmitter one clock late was not found where it must be: {other:?}"),
     }
 
-    let runs: Vec<(Block, Vec<Case>)> = vec![
+    // The character reader as the receiver builds it (a rate chosen at run time) and as each
+    // search channel does (its own rate, constant, its registers as narrow as that allows).
+    let run_time = blocks::run_time_width();
+    let (reader_rates, own_width_rates): (Vec<Baud>, Vec<Baud>) = if quick {
+        (
+            vec![Baud::B45450, Baud::B1500000, Baud::B12000000],
+            vec![Baud::B12000000],
+        )
+    } else {
+        (Baud::ALL.to_vec(), Baud::ALL.to_vec())
+    };
+    let mut runs: Vec<(Block, Vec<Case>)> = vec![
         (blocks::line_sync(0), blocks::line_sync_cases(0, quick)),
         (blocks::line_sync(3), blocks::line_sync_cases(3, quick)),
-        (blocks::char_reader(), blocks::char_reader_cases(quick)),
+        (
+            blocks::char_reader(run_time),
+            blocks::char_reader_cases(&reader_rates, run_time, quick),
+        ),
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
         (blocks::watchdog(24), blocks::watchdog_cases(24, quick)),
         (blocks::watchdog(38), blocks::watchdog_cases(38, quick)),
     ];
+    for baud in own_width_rates {
+        let width = blocks::width_of(baud);
+        if width != run_time {
+            runs.push((
+                blocks::char_reader(width),
+                blocks::char_reader_cases(&[baud], width, quick),
+            ));
+        }
+    }
     let (mut cases, mut clocks, mut mismatches) = (0usize, 0u64, 0usize);
     for (block, block_cases) in &runs {
         let binary = build(block, &gateware, &out)?;

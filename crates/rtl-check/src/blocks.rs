@@ -6,7 +6,7 @@
 
 mod char_reader;
 mod watchdog;
-pub use char_reader::{char_reader, char_reader_cases};
+pub use char_reader::{char_reader, char_reader_cases, run_time_width, width_of};
 pub use watchdog::{watchdog, watchdog_cases};
 
 use crate::{Block, Case, Trace};

@@ -11,9 +11,10 @@ use dp_phy::BitTiming;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// The reader, its phase registers as wide as the widest rate's reduced modulo (45.45 kbit/s:
-/// 320,000 units).
-pub fn char_reader() -> Block {
+/// The reader with phase registers of `width` bits: the widest rate's ([`run_time_width`]) as
+/// the receiver builds it for a rate chosen at run time, or one rate's own ([`width_of`]) as a
+/// search channel builds it for its constant rate.
+pub fn char_reader(width: u32) -> Block {
     Block {
         top: "char_reader",
         rtl: &["char_reader.v"],
@@ -27,20 +28,21 @@ pub fn char_reader() -> Block {
             "glitches1",
             "pair_open",
         ],
-        params: vec![("PhaseWidth", i64::from(phase_width()))],
+        params: vec![("PhaseWidth", i64::from(width))],
         twin: "dp_phy::char_reader::CharReader",
         events: true,
     }
 }
 
-/// Bits that hold every rate's reduced modulo.
-pub fn phase_width() -> u32 {
-    let widest = Baud::ALL
-        .iter()
-        .map(|&b| BitTiming::new(DEFAULT_CLOCK_HZ, b, 0).reduced().modulo)
-        .max()
-        .expect("rates");
-    u64::BITS - widest.leading_zeros()
+/// Bits that hold `baud`'s reduced modulo.
+pub fn width_of(baud: Baud) -> u32 {
+    let modulo = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0).reduced().modulo;
+    u64::BITS - modulo.leading_zeros()
+}
+
+/// Bits that hold every rate's reduced modulo (45.45 kbit/s: 320,000 units, 19 bits).
+pub fn run_time_width() -> u32 {
+    Baud::ALL.iter().map(|&b| width_of(b)).max().expect("rates")
 }
 
 /// The stimulus and the model, written together.
@@ -177,18 +179,13 @@ fn toggles(rng: &mut ChaCha8Rng, baud: Baud, byte: u8, ppm: i32, glitches: usize
     out
 }
 
-/// At every rate: clean characters, characters with one to three glitches, random edges, and
-/// a start that cuts the character before short.
-pub fn char_reader_cases(quick: bool) -> Vec<Case> {
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
+/// At each of `rates`: clean characters, characters with one to three glitches, random edges,
+/// and a start that cuts the character before short; `width` names the cases.
+pub fn char_reader_cases(rates: &[Baud], width: u32, quick: bool) -> Vec<Case> {
+    let mut rng = ChaCha8Rng::seed_from_u64(11 + u64::from(width));
     let chars = if quick { 12 } else { 60 };
-    let rates: Vec<Baud> = if quick {
-        vec![Baud::B45450, Baud::B1500000, Baud::B12000000]
-    } else {
-        Baud::ALL.to_vec()
-    };
     let mut cases = Vec::new();
-    for baud in rates {
+    for &baud in rates {
         let bit = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0).clocks_per_bit();
         let mut case = ReaderCase::new(baud);
         case.hold(true, 7);
@@ -229,7 +226,7 @@ pub fn char_reader_cases(quick: bool) -> Vec<Case> {
                 case.hold(true, rng.gen_range(1..bit) as u32);
             }
         }
-        cases.push(case.finish(format!("char_reader-{baud}")));
+        cases.push(case.finish(format!("char_reader-w{width}-{baud}")));
     }
     cases
 }

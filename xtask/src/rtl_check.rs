@@ -57,9 +57,13 @@ pub fn run(args: &[String]) -> Result<()> {
         ),
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
-        (blocks::watchdog(24), blocks::watchdog_cases(24, quick)),
-        (blocks::watchdog(38), blocks::watchdog_cases(38, quick)),
     ];
+    for width in [blocks::baud_watchdog_width(), blocks::dp_watchdog_width()] {
+        runs.push((
+            blocks::watchdog(width),
+            blocks::watchdog_cases(width, quick),
+        ));
+    }
     for baud in own_width_rates {
         let width = blocks::width_of(baud);
         if width != run_time {

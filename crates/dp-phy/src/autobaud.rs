@@ -6,8 +6,9 @@
 //! lasts a bit), and starts a measurement at a fall after TSYN (33 of its bits) of idle line. At
 //! the middle of the stop bit (10.5 of its bits after the start edge; at its end if the line is
 //! low there) it decides on the character it read as it came ([`CharReader`], the replay of its
-//! edges in a few registers): each bit is the level the line held for longer within it (a glitch of the rate is shorter than half a bit, so it cannot turn one, nor can an
-//! edge it moved; a tie is nothing), the edges off the bit grid must be one glitch's at most, and
+//! edges in a few registers): each bit is the level the line held for longer within it (a
+//! glitch of the rate is shorter than half a bit, so it cannot turn one, nor can an edge it
+//! moved; a tie is nothing), the edges off the bit grid must be one glitch's at most, and
 //! the character must have a start bit, even parity and a stop bit, and be a start delimiter
 //! (SD1 `10`, SD2 `68`, SD3 `A2`, SD4 `DC`). Then the rate and the decoded first character are
 //! handed to the receiver, which goes on with the rest of the telegram, so nothing is lost.

@@ -150,19 +150,9 @@ impl CharReader {
             let k = ((q.rem - 1) / self.inc).min(n);
             if k > 0 {
                 let span = k * self.inc;
-                q.rem -= span;
-                if level {
-                    q.lag += 2 * span as i64;
-                } else {
-                    q.lead -= 2 * span as i64;
-                }
+                within_bit(q, level, span);
                 if q.pair_open {
-                    if q.pair_left >= span {
-                        q.pair_left -= span;
-                    } else {
-                        q.pair_open = false;
-                        q.pair_left = 0;
-                    }
+                    pair_window_runs(q, span);
                 }
                 n -= k;
             }
@@ -213,14 +203,9 @@ impl CharReader {
     /// of its balance (a bit lasts at least 3 clocks, so at most one ends). `pair_runs`: a
     /// glitch opened before this clock may still be ended, and its half bit runs on.
     fn pass(&self, q: &mut CharReaderQ, level: bool, pair_runs: bool) {
-        let (inc, modulo) = (self.inc as i64, self.modulo as i64);
+        let modulo = self.modulo as i64;
         if q.rem > self.inc {
-            q.rem -= self.inc;
-            if level {
-                q.lag += 2 * inc;
-            } else {
-                q.lead -= 2 * inc;
-            }
+            within_bit(q, level, self.inc);
         } else {
             decide(q, if level { q.lead } else { q.lag });
             // The units of this clock past the bit's end open the next bit.
@@ -233,13 +218,29 @@ impl CharReader {
             };
         }
         if pair_runs {
-            if q.pair_left >= self.inc {
-                q.pair_left -= self.inc;
-            } else {
-                q.pair_open = false;
-                q.pair_left = 0;
-            }
+            pair_window_runs(q, self.inc);
         }
+    }
+}
+
+/// `span` phase units at `level` that end before the current bit does.
+fn within_bit(q: &mut CharReaderQ, level: bool, span: u64) {
+    q.rem -= span;
+    if level {
+        q.lag += 2 * span as i64;
+    } else {
+        q.lead -= 2 * span as i64;
+    }
+}
+
+/// `span` units pass of the half bit within which a second edge off the grid ends the glitch
+/// the first one opened; past it, the window closes.
+fn pair_window_runs(q: &mut CharReaderQ, span: u64) {
+    if q.pair_left >= span {
+        q.pair_left -= span;
+    } else {
+        q.pair_open = false;
+        q.pair_left = 0;
     }
 }
 

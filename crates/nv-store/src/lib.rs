@@ -25,7 +25,7 @@ use core::task::{Context, Poll, Waker};
 use dp_link::{NvContents, NvParams, NvRecord};
 use embedded_storage_async::nor_flash::NorFlash;
 use sequential_storage::cache::{Cache, Uncached};
-use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
+use sequential_storage::map::{MapConfig, MapStorage, SerializationError};
 
 #[cfg(any(test, feature = "std"))]
 mod mem_flash;
@@ -42,23 +42,6 @@ const BUFFER_LEN: usize = 48;
 
 /// Why the storage could not be read or written.
 pub type Error<E> = sequential_storage::Error<E>;
-
-/// A record as a map value: postcard, as the link encodes it.
-struct Postcard<T>(T);
-
-impl<'a, T: serde::Serialize + serde::Deserialize<'a>> Value<'a> for Postcard<T> {
-    fn serialize_into(&self, buffer: &mut [u8]) -> Result<usize, SerializationError> {
-        postcard::to_slice(&self.0, buffer)
-            .map(|bytes| bytes.len())
-            .map_err(|_| SerializationError::BufferTooSmall)
-    }
-
-    fn deserialize_from(buffer: &'a [u8]) -> Result<(Self, usize), SerializationError> {
-        postcard::take_from_bytes(buffer)
-            .map(|(value, rest)| (Postcard(value), buffer.len() - rest.len()))
-            .map_err(|_| SerializationError::InvalidFormat)
-    }
-}
 
 /// The storage over `flash`, in `range` of it (whole erase pages, at least two).
 pub struct Store<F: NorFlash> {
@@ -88,35 +71,35 @@ impl<F: NorFlash> Store<F> {
         }
     }
 
-    fn fetch<T: serde::Serialize + serde::de::DeserializeOwned>(&mut self, key: u8) -> Option<T> {
-        let fetched = block_on(self.map.fetch_item::<Postcard<T>>(&mut self.buffer.0, &key));
-        fetched.ok().flatten().map(|Postcard(value)| value)
+    /// Every item is bytes to the map and postcard to us: one instance of the map's generic
+    /// fetch and store serves every record (each instance is kilobytes of a board's flash).
+    fn fetch<T: serde::de::DeserializeOwned>(&mut self, key: u8) -> Option<T> {
+        let fetched = block_on(self.map.fetch_item::<&[u8]>(&mut self.buffer.0, &key));
+        postcard::from_bytes(fetched.ok().flatten()?).ok()
+    }
+
+    fn store<T: serde::Serialize>(&mut self, key: u8, value: &T) -> Result<(), Error<F::Error>> {
+        let mut bytes = [0u8; BUFFER_LEN];
+        let used: &[u8] = postcard::to_slice(value, &mut bytes)
+            .map_err(|_| Error::SerializationError(SerializationError::BufferTooSmall))?;
+        block_on(self.map.store_item(&mut self.buffer.0, &key, &used))
     }
 
     /// Keeps the station address record.
     pub fn write_address(&mut self, record: NvRecord) -> Result<(), Error<F::Error>> {
-        block_on(
-            self.map
-                .store_item(&mut self.buffer.0, &KEY_ADDRESS, &Postcard(record)),
-        )
+        self.store(KEY_ADDRESS, &record)
     }
 
     /// Keeps the settings (971).
     pub fn write_params(&mut self, params: NvParams) -> Result<(), Error<F::Error>> {
-        block_on(
-            self.map
-                .store_item(&mut self.buffer.0, &KEY_PARAMS, &Postcard(Some(params))),
-        )
+        self.store(KEY_PARAMS, &Some(params))
     }
 
     /// Forgets the settings: the next power-up has their defaults (switch 99). Written as an
     /// item of its own (no settings), not a removal: removing marks an item written already,
     /// a second programming the STM32F1's flash allows only as all zeros.
     pub fn forget_params(&mut self) -> Result<(), Error<F::Error>> {
-        block_on(
-            self.map
-                .store_item(&mut self.buffer.0, &KEY_PARAMS, &Postcard(None::<NvParams>)),
-        )
+        self.store(KEY_PARAMS, &None::<NvParams>)
     }
 
     /// The flash back (the host's view of what a board would keep).

@@ -7,7 +7,7 @@
 mod char_reader;
 mod watchdog;
 pub use char_reader::{char_reader, char_reader_cases, run_time_width, width_of};
-pub use watchdog::{watchdog, watchdog_cases};
+pub use watchdog::{baud_watchdog_width, dp_watchdog_width, watchdog, watchdog_cases};
 
 use crate::{Block, Case, Trace};
 use dp_consts::Baud;

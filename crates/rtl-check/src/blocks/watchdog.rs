@@ -8,8 +8,7 @@ use dp_phy::watchdog::Watchdog;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// The watchdog `width` bits wide (24: the baud watchdog's 200 ms at 48 MHz; 38: the DP
-/// watchdog's longest, 2^32 us).
+/// The watchdog `width` bits wide ([`baud_watchdog_width`], [`dp_watchdog_width`]).
 pub fn watchdog(width: u32) -> Block {
     Block {
         top: "watchdog",
@@ -19,6 +18,24 @@ pub fn watchdog(width: u32) -> Block {
         twin: "dp_phy::watchdog::Watchdog",
         events: true,
     }
+}
+
+/// Bits that count `clocks`.
+fn bits_for(clocks: u64) -> u32 {
+    u64::BITS - clocks.leading_zeros()
+}
+
+/// The baud-control watchdog's width: its clocks in the transceiver's configuration (200 ms at
+/// 48 MHz: 24 bits).
+pub fn baud_watchdog_width() -> u32 {
+    let cfg = dp_phy::Config::default();
+    bits_for(u64::from(cfg.baud_watchdog_10ms) * u64::from(cfg.clock_hz / 100))
+}
+
+/// The DP watchdog's width: the longest the registers can ask for, 2^32 - 1 us (38 bits).
+pub fn dp_watchdog_width() -> u32 {
+    let clocks_per_us = u64::from(dp_phy::timing::DEFAULT_CLOCK_HZ / 1_000_000);
+    bits_for(u64::from(u32::MAX) * clocks_per_us)
 }
 
 /// A clock's command.

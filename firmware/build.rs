@@ -1,5 +1,6 @@
 //! Writes the chosen board's `memory.x`, where cortex-m-rt's `link.x` finds it, from the board
 //! table (`crates/board`, [`board_figures::BOARDS`]): a board's memory is written down once.
+//! The image's flash ends where the non-volatile storage's pages begin.
 use std::{env, fs, path::PathBuf};
 
 fn main() {
@@ -20,7 +21,12 @@ fn main() {
     let m = board.memory;
     let memory_x = format!(
         "/* {} ({}), from crates/board's table */\nMEMORY\n{{\n  FLASH : ORIGIN = {:#010x}, LENGTH = {}\n  RAM   : ORIGIN = {:#010x}, LENGTH = {}\n}}\n",
-        board.name, board.description, m.flash_origin, m.flash_bytes, m.ram_origin, m.ram_bytes
+        board.name,
+        board.description,
+        m.flash_origin,
+        m.flash_bytes - board_figures::NV_STORAGE_BYTES,
+        m.ram_origin,
+        m.ram_bytes
     );
     let out = PathBuf::from(env::var_os("OUT_DIR").unwrap());
     fs::write(out.join("memory.x"), memory_x).unwrap();

@@ -24,6 +24,7 @@
 
 mod board;
 mod drive_uart;
+mod nv;
 mod ram_test;
 #[cfg(feature = "sim")]
 mod sim_pipe;
@@ -342,6 +343,7 @@ macro_rules! adapter_app {
                     }
                 });
                 crate::drive_uart::kick();
+                crate::nv::carry_out(adapter);
                 log_changes(before, adapter);
                 true
             }
@@ -400,8 +402,8 @@ macro_rules! adapter_app {
                 if let ToAdapter::Sim(dp_link::sim::SimToAdapter::Continue(_)) = *message {
                     start = board::timestamp();
                 }
-                if let ToAdapter::Boot { switch, nv, .. } = *message {
-                    boot(slot, drive_ends, switch, nv);
+                if let ToAdapter::Boot { switch, .. } = *message {
+                    boot(slot, drive_ends, switch);
                 }
                 let Some(adapter) = slot.as_deref_mut() else {
                     warn!("link: message before Boot");
@@ -474,6 +476,7 @@ macro_rules! adapter_app {
                         crate::drive_uart::kick();
                     }
                 }
+                crate::nv::carry_out(adapter);
                 #[cfg(feature = "sim")]
                 crate::sim_pipe::reply(frame, &dp_link::sim::SimFromAdapter::Done {
                     link_frames: writes.get(),
@@ -498,7 +501,6 @@ macro_rules! adapter_app {
                 slot: &mut Option<&'static mut Adapter<crate::DriveApp>>,
                 drive_ends: &mut Option<crate::drive_uart::LinkEnds>,
                 switch: u8,
-                nv: Option<dp_link::NvRecord>,
             ) {
                 if slot.is_some() {
                     warn!("link: a second Boot, ignored");
@@ -508,7 +510,7 @@ macro_rules! adapter_app {
                 if let Some(ends) = drive_ends.take() {
                     adapter.app_mut().drive_mut().master_mut().uart_mut().attach(ends);
                 }
-                adapter.power_up(switch, nv);
+                adapter.power_up(switch, crate::nv::load());
                 let a = adapter.addressing();
                 info!("adapter: switch {=u8}, address {=u8} from {}", switch, a.address, a.source);
                 *slot = Some(adapter);
@@ -516,6 +518,9 @@ macro_rules! adapter_app {
 
             /// `frame` is the task's: a fresh zeroed frame per message cost more than encoding it.
             fn send(tx: &mut board::Uart, frame: &mut [u8; dp_link::MAX_FRAME_LEN], message: &FromAdapter) {
+                if let FromAdapter::Status(status) = message {
+                    crate::nv::note(status);
+                }
                 match dp_link::encode(message, frame) {
                     Ok(bytes) => tx.write_frame(bytes),
                     Err(_) => warn!("link: message does not fit a frame"),

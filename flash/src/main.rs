@@ -1,7 +1,7 @@
 //! `cargo xtask flash`: the production image onto a board, through a debug probe, with probe-rs.
 //!
 //! xtask builds the release image and runs this binary with `--elf PATH`. It attaches to the
-//! chip (STM32F103C8 from probe-rs's built-in targets unless `--chip` says otherwise), prints
+//! chip (STM32F103CB from probe-rs's built-in targets unless `--chip` says otherwise), prints
 //! the flash plan (sectors erased, pages programmed, bytes verified), flashes, verifies and
 //! resets the board; with `--log` it then streams the firmware's defmt log over RTT, decoded
 //! with defmt-decoder as qemu-test decodes QEMU's. `--dry-run` runs the same plan against
@@ -349,9 +349,9 @@ fn stream_log(session: &mut Session, elf: &[u8]) -> Result<()> {
 mod tests {
     use super::*;
 
-    /// The STM32F103C8's flash as probe-rs's built-in target describes it (1 KiB sectors and
+    /// The production chip's flash as probe-rs's built-in target describes it (1 KiB sectors and
     /// pages at 0x08000000), not as this crate would guess it.
-    fn stm32f103c8_flash() -> FlashProperties {
+    fn production_flash() -> FlashProperties {
         let target = probe_rs::config::Registry::from_builtin_families()
             .get_target_by_name(board::PRODUCTION.chip)
             .unwrap();
@@ -366,7 +366,7 @@ mod tests {
 
     #[test]
     fn an_image_erases_and_programs_the_sectors_it_touches() {
-        let flash = stm32f103c8_flash();
+        let flash = production_flash();
         // 46,656 bytes from the start: 45 whole KiB and part of a 46th.
         let (sectors, pages) = layout(&[(0x0800_0000, 0x0800_B640)], &flash);
         assert_eq!(sectors.len(), 46);
@@ -397,11 +397,11 @@ mod tests {
             "--probe",
             "0483:3748:ABC",
             "--chip",
-            "STM32F103CB",
+            "STM32F103C8",
         ]))
         .unwrap();
-        assert_eq!(o.chip, "STM32F103CB");
+        assert_eq!(o.chip, "STM32F103C8");
         assert_eq!(o.probe.unwrap().to_string(), "0483:3748:ABC");
-        assert_eq!(parse(&args(&["--elf", "x"])).unwrap().chip, "STM32F103C8");
+        assert_eq!(parse(&args(&["--elf", "x"])).unwrap().chip, "STM32F103CB");
     }
 }

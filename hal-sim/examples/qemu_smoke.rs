@@ -12,7 +12,6 @@ fn main() -> std::io::Result<()> {
         seq: 1,
         now_us: 0,
         switch: 8,
-        nv: None,
     };
     println!("{:?}", fw.exchange(&boot)?);
     let diag = [

@@ -26,7 +26,7 @@
 use crate::firmware::{Firmware, Handled, Write};
 use board::Board;
 use dp_link::sim::{Grant, SimToAdapter};
-use dp_link::{NvRecord, Status, ToAdapter, MAX_FRAME_LEN};
+use dp_link::{NvContents, NvWrite, Status, ToAdapter, MAX_FRAME_LEN};
 use dp_phy::responder::{Input, Responder};
 use dp_phy::Tick;
 use drive_sim::line::DriveLine;
@@ -40,7 +40,6 @@ enum Event {
     Boot {
         seq: u32,
         switch: u8,
-        nv: Option<NvRecord>,
     },
     Telegram {
         seq: u32,
@@ -119,8 +118,6 @@ pub struct Bridge<F: Firmware> {
     pub board: Board,
     /// The board's address switch.
     pub switch: u8,
-    /// The emulated non-volatile storage.
-    pub nv: Option<NvRecord>,
     /// The adapter's last status.
     pub status: Status,
     /// The drive link and the drive behind the adapter.
@@ -159,13 +156,12 @@ pub struct Bridge<F: Firmware> {
 
 impl<F: Firmware> Bridge<F> {
     /// The board around `firmware`, not yet powered (see [`Bridge::boot`]).
-    pub fn new(firmware: F, clock_hz: u32, switch: u8, nv: Option<NvRecord>) -> Bridge<F> {
+    pub fn new(firmware: F, clock_hz: u32, switch: u8) -> Bridge<F> {
         Bridge {
             firmware,
             responder: Responder::new(clock_hz),
             board: board::PRODUCTION,
             switch,
-            nv,
             status: Status::POWER_ON,
             drive: DriveLine::default(),
             figures: LinkFigures::default(),
@@ -201,9 +197,10 @@ impl<F: Firmware> Bridge<F> {
 
     /// Power-up at `now_ns`: the transceiver tells the MCU the switch and the storage.
     pub fn boot(&mut self, now_ns: u64) {
+        let stored = self.stored().ok().and_then(|c| c.address);
         self.events.push(format!(
             "power-up: switch {:02}, storage {:?}",
-            self.switch, self.nv
+            self.switch, stored
         ));
         let seq = self.responder.next_event();
         self.send(
@@ -211,10 +208,14 @@ impl<F: Firmware> Bridge<F> {
             Event::Boot {
                 seq,
                 switch: self.switch,
-                nv: self.nv,
             },
             false,
         );
+    }
+
+    /// What the MCU's storage holds now.
+    pub fn stored(&mut self) -> io::Result<NvContents> {
+        Ok(crate::firmware::nv_contents(&self.firmware.storage()?))
     }
 
     /// A power cycle at `now_ns`: the MCU and the transceiver restart, the drive stays.
@@ -494,11 +495,10 @@ impl<F: Firmware> Bridge<F> {
         let latency = start_ns - e.at_ns;
         self.figures.worst_event_latency_ns = self.figures.worst_event_latency_ns.max(latency);
         let handled = match &e.event {
-            Event::Boot { seq, switch, nv } => self.exchange(&ToAdapter::Boot {
+            Event::Boot { seq, switch } => self.exchange(&ToAdapter::Boot {
                 seq: *seq,
                 now_us,
                 switch: *switch,
-                nv: *nv,
             })?,
             Event::Telegram { seq, baud, bytes } => self.exchange(&ToAdapter::Telegram {
                 seq: *seq,
@@ -634,12 +634,15 @@ impl<F: Firmware> Bridge<F> {
                 l.net, l.run, l.tx, l.rx, l.error, l.online, l.offline, l.host
             ));
         }
-        if let Some(record) = new.nv_write {
-            self.nv = Some(record);
-            self.events.push(format!(
-                "storage: address {}, no_add_chg {}",
-                record.address, record.no_add_chg
-            ));
+        match new.nv_write {
+            Some(NvWrite::Address(record)) | Some(NvWrite::FactoryDefaults(record)) => {
+                self.events.push(format!(
+                    "storage: address {}, no_add_chg {}",
+                    record.address, record.no_add_chg
+                ));
+            }
+            Some(NvWrite::Params) => self.events.push("storage: the settings (971)".into()),
+            None => {}
         }
         if new.wake_at_us != old.wake_at_us {
             self.timer_sent_for = None;
@@ -668,11 +671,10 @@ const SHORTEST_REQUEST_LEN: usize = 6;
 fn encoded_len(event: &Event, at_ns: u64) -> usize {
     let now_us = at_ns / 1000;
     let message = match event {
-        Event::Boot { seq, switch, nv } => ToAdapter::Boot {
+        Event::Boot { seq, switch } => ToAdapter::Boot {
             seq: *seq,
             now_us,
             switch: *switch,
-            nv: *nv,
         },
         Event::Telegram { seq, baud, bytes } => ToAdapter::Telegram {
             seq: *seq,
@@ -758,7 +760,7 @@ mod tests {
     ) {
         let grants = std::rc::Rc::default();
         let firmware = cycling(std::rc::Rc::clone(&grants), earlier, step);
-        let mut bridge = Bridge::new(firmware, 48_000_000, 5, None);
+        let mut bridge = Bridge::new(firmware, 48_000_000, 5);
         bridge.mcu_free_ns = 1_000_000;
         bridge.to_mcu_free_ns = 1_000_000;
         bridge.cycle_pending = true;
@@ -815,17 +817,13 @@ mod tests {
     #[test]
     fn the_board_charges_the_idle_character_and_a_write_waits_for_the_one_before() {
         let firmware = fixed(720, 1440, vec![0x55; 12]);
-        let mut bridge = Bridge::new(firmware, 48_000_000, 5, None);
+        let mut bridge = Bridge::new(firmware, 48_000_000, 5);
         let board = bridge.board;
         let link = board.link;
         assert!(link.dma_writes && link.idle_bytes_after_frame == 1);
         bridge.boot(0);
         let boot_len = encoded_len(
-            &Event::Boot {
-                seq: 1,
-                switch: 5,
-                nv: None,
-            },
+            &Event::Boot { seq: 1, switch: 5 },
             0,
         );
         // The Boot reaches the MCU after its bytes and the idle character, plus the entry.

@@ -325,7 +325,8 @@ pub struct DxLog {
 
 impl<F: Firmware> CoSim<F> {
     /// Powers the board up with the switch at `switch` and the storage holding `nv`.
-    pub fn new(firmware: F, switch: u8, nv: Option<NvRecord>) -> io::Result<CoSim<F>> {
+    pub fn new(mut firmware: F, switch: u8, nv: Option<NvRecord>) -> io::Result<CoSim<F>> {
+        firmware.set_storage(crate::firmware::nv_image(nv))?;
         let mut sim = CoSim {
             now: 0,
             bus: Bus::new(FaultInjector::none()),
@@ -334,7 +335,7 @@ impl<F: Firmware> CoSim<F> {
                 clock_hz: CLOCK_HZ,
                 ..dp_phy::Config::default()
             }),
-            bridge: Bridge::new(firmware, CLOCK_HZ, switch, nv),
+            bridge: Bridge::new(firmware, CLOCK_HZ, switch),
             figures: Figures::default(),
             log_dx: false,
             dx: DxLog::default(),

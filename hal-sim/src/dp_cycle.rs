@@ -180,7 +180,7 @@ pub fn run(baud: Baud, ppo: Ppo, slaves: usize, cycles: usize, hsa: u8) -> io::R
 
     let mut adapters: Vec<Adapter> = (0..slaves)
         .map(|i| {
-            let mut bridge = Bridge::new(InProcess::new(), CLOCK_HZ, FIRST_ADDRESS + i as u8, None);
+            let mut bridge = Bridge::new(InProcess::new(), CLOCK_HZ, FIRST_ADDRESS + i as u8);
             bridge.boot(0);
             Adapter {
                 phy: Transceiver::new(dp_phy::Config {

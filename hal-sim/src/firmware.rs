@@ -22,7 +22,8 @@
 //! that keeps the drive link on simulated time.
 
 use dp_link::sim::{Next, SimFromAdapter, SimToAdapter};
-use dp_link::{FromAdapter, Regs, Status, ToAdapter, MAX_FRAME_LEN};
+use dp_link::{FromAdapter, NvContents, NvRecord, Regs, Status, ToAdapter, MAX_FRAME_LEN};
+use nv_store::{MemFlash, Store};
 use std::fs::File;
 use std::io::{self, Read, Write as _};
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -114,8 +115,18 @@ pub struct Handled {
 pub trait Firmware {
     fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled>;
 
-    /// Power cycle: the firmware starts from reset (it then expects a Boot).
+    /// Power cycle: the firmware starts from reset (it then expects a Boot). Its storage stays.
     fn restart(&mut self) -> io::Result<()>;
+
+    /// The non-volatile storage's pages as the firmware left them (empty: it keeps none).
+    fn storage(&mut self) -> io::Result<Vec<u8>> {
+        Ok(Vec::new())
+    }
+
+    /// Puts `image` in the storage's pages, before the first Boot.
+    fn set_storage(&mut self, _image: Vec<u8>) -> io::Result<()> {
+        Ok(())
+    }
 
     /// Bytes from the drive into the firmware's drive UART.
     fn drive_send(&mut self, bytes: &[u8]) -> io::Result<()>;
@@ -173,11 +184,55 @@ impl adapter::CountsSent for MemoryUart {
     }
 }
 
-/// The adapter crate in-process: the firmware's logic without the RTIC shell (cycles are 0).
-#[derive(Default)]
+/// The adapter crate in-process: the firmware's logic without the RTIC shell (cycles are 0),
+/// its storage in memory, written as the firmware's `nv` module writes it.
 pub struct InProcess {
     adapter: Option<adapter::Adapter<adapter::DriveApp<MemoryUart>>>,
+    storage: MemFlash,
 }
+
+impl Default for InProcess {
+    fn default() -> InProcess {
+        InProcess {
+            adapter: None,
+            storage: MemFlash::erased(NV_STORAGE_PAGES),
+        }
+    }
+}
+
+/// The storage's pages (the board's, crates/board).
+const NV_STORAGE_PAGES: usize = board::NV_STORAGE_PAGES as usize;
+
+/// The storage over `flash`, as the firmware opens it.
+pub fn nv_store(flash: MemFlash) -> Store<MemFlash> {
+    Store::new(flash, 0..board::NV_STORAGE_BYTES)
+}
+
+/// What a storage image holds (an empty image: nothing).
+pub fn nv_contents(image: &[u8]) -> NvContents {
+    if image.is_empty() {
+        return NvContents::default();
+    }
+    nv_store(MemFlash {
+        bytes: image.to_vec(),
+    })
+    .load()
+}
+
+/// A storage image holding `address` (or nothing), as a board's storage would.
+pub fn nv_image(address: Option<NvRecord>) -> Vec<u8> {
+    let mut store = nv_store(MemFlash::erased(NV_STORAGE_PAGES));
+    if let Some(record) = address {
+        store
+            .write_address(record)
+            .expect("an empty storage takes a record");
+    }
+    store.into_flash().bytes
+}
+
+/// The file of the storage's pages in QEMU's working directory (the firmware's `nv` module
+/// opens it by this name).
+pub const NV_STORAGE_FILE: &str = "nv-storage.bin";
 
 impl InProcess {
     pub fn new() -> InProcess {
@@ -195,9 +250,10 @@ impl InProcess {
 
 impl Firmware for InProcess {
     fn exchange(&mut self, message: &ToAdapter) -> io::Result<Handled> {
-        if let ToAdapter::Boot { switch, nv, .. } = *message {
+        if let ToAdapter::Boot { switch, .. } = *message {
             let app = adapter::drive_app(MemoryUart::default());
-            self.adapter = Some(adapter::Adapter::boot(switch, nv, app));
+            let contents = nv_store(self.storage.clone()).load();
+            self.adapter = Some(adapter::Adapter::boot(switch, contents, app));
         }
         let adapter = self
             .adapter
@@ -234,6 +290,17 @@ impl Firmware for InProcess {
             }
         }
         handled.writes = writes.into_inner();
+        let nv_write = handled.writes.iter().rev().find_map(|(_, w)| match w {
+            Write::Status(status) => status.nv_write,
+            _ => None,
+        });
+        if let Some(write) = nv_write {
+            let mut store = nv_store(self.storage.clone());
+            store
+                .carry_out(write, adapter.nv_params())
+                .map_err(|e| io::Error::other(format!("storage: {e:?}")))?;
+            self.storage = store.into_flash();
+        }
         handled.decision_writes = decision_writes.get();
         handled.cycle_pending = adapter.cycle_pending();
         handled.drive_tx_bytes = adapter::Background::drive_tx_bytes(adapter.app());
@@ -242,6 +309,19 @@ impl Firmware for InProcess {
 
     fn restart(&mut self) -> io::Result<()> {
         self.adapter = None;
+        Ok(())
+    }
+
+    fn storage(&mut self) -> io::Result<Vec<u8>> {
+        Ok(self.storage.bytes.clone())
+    }
+
+    fn set_storage(&mut self, image: Vec<u8>) -> io::Result<()> {
+        self.storage = if image.is_empty() {
+            MemFlash::erased(NV_STORAGE_PAGES)
+        } else {
+            MemFlash { bytes: image }
+        };
         Ok(())
     }
 
@@ -322,17 +402,24 @@ impl Qemu {
     /// link) and its second (the drive link) connected to fresh Unix sockets, `-icount
     /// shift=7` so that the firmware's cycle counts repeat run to run.
     pub fn start(qemu: &Path, elf: &Path, machine: &str) -> io::Result<Qemu> {
-        Qemu::start_with(qemu, elf, machine, ICOUNT)
+        Qemu::start_with(qemu, elf, machine, ICOUNT, Vec::new())
     }
 
     /// As [`Qemu::start`], for a run on the wall clock (`qemu-run`): QEMU sleeps while the
     /// firmware waits for an interrupt instead of spinning (66 % of a core idle, 7 % with
     /// this), and the counts still come from `-icount`.
     pub fn start_realtime(qemu: &Path, elf: &Path, machine: &str) -> io::Result<Qemu> {
-        Qemu::start_with(qemu, elf, machine, ICOUNT_REALTIME)
+        Qemu::start_with(qemu, elf, machine, ICOUNT_REALTIME, Vec::new())
     }
 
-    fn start_with(qemu: &Path, elf: &Path, machine: &str, icount: &str) -> io::Result<Qemu> {
+    /// `storage`: the storage's pages, in place before the firmware runs (empty: erased).
+    fn start_with(
+        qemu: &Path,
+        elf: &Path,
+        machine: &str,
+        icount: &str,
+        storage: Vec<u8>,
+    ) -> io::Result<Qemu> {
         let pipe_dir = tempfile::Builder::new().prefix("hal-sim-").tempdir()?;
         // Unix sockets for the UARTs: QEMU writes a UART's bytes one at a time, and a byte
         // through the loopback's TCP stack cost several times as much.
@@ -350,6 +437,7 @@ impl Qemu {
                 .write(true)
                 .open(&path)
         };
+        write_storage(pipe_dir.path(), storage)?;
         let next = fifo(SIM_PIPE_NEXT)?;
         let replies = fifo(SIM_PIPE_REPLIES)?;
         // The image by its full path: QEMU runs in the pipe's directory.
@@ -557,8 +645,14 @@ impl Qemu {
             let timeout = PollTimeout::try_from(LIVENESS_POLL).expect("a short timeout");
             if poll(&mut fds, timeout).map_err(io::Error::from)? == 0 {
                 if let Some(status) = self.child.try_wait()? {
+                    // QEMU's own words (an abort names its cause there).
+                    let mut err = String::new();
+                    if let Some(mut e) = self.child.stderr.take() {
+                        let _ = e.read_to_string(&mut err);
+                    }
                     return Err(io::Error::other(format!(
-                        "QEMU exited ({status}) before the firmware replied"
+                        "QEMU exited ({status}) before the firmware replied: {}",
+                        err.trim()
                     )));
                 }
                 if start.elapsed() > REPLY_TIMEOUT {
@@ -643,6 +737,17 @@ impl Firmware for Qemu {
         self.restart_process()
     }
 
+    fn storage(&mut self) -> io::Result<Vec<u8>> {
+        match std::fs::read(self._pipe_dir.path().join(NV_STORAGE_FILE)) {
+            Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(Vec::new()),
+            other => other,
+        }
+    }
+
+    fn set_storage(&mut self, image: Vec<u8>) -> io::Result<()> {
+        write_storage(self._pipe_dir.path(), image)
+    }
+
     fn stack_peak(&mut self) -> io::Result<Option<StackPeak>> {
         self.send(&ToAdapter::Sim(SimToAdapter::StackPeak))?;
         match self.reply()? {
@@ -670,6 +775,16 @@ impl Firmware for Qemu {
             .map_err(|e| io::Error::new(e.kind(), format!("{n} bytes from the drive UART: {e}")))?;
         Ok(bytes)
     }
+}
+
+/// The storage's file in QEMU's directory: `image`, or erased pages where it is empty.
+fn write_storage(dir: &Path, image: Vec<u8>) -> io::Result<()> {
+    let image = if image.is_empty() {
+        MemFlash::erased(NV_STORAGE_PAGES).bytes
+    } else {
+        image
+    };
+    std::fs::write(dir.join(NV_STORAGE_FILE), image)
 }
 
 /// The connection QEMU makes for one chardev, or why it never came.
@@ -703,8 +818,11 @@ fn accept(listener: &UnixListener, child: &mut Child, name: &str) -> io::Result<
 impl Qemu {
     fn restart_process(&mut self) -> io::Result<()> {
         self.kill_and_collect();
+        // The storage outlives the power cycle: its file goes into the fresh directory before
+        // the firmware starts.
+        let storage = Firmware::storage(self)?;
         let earlier = std::mem::take(&mut self.earlier_runs);
-        let fresh = Qemu::start_with(&self.qemu, &self.elf, &self.machine, &self.icount)?;
+        let fresh = Qemu::start_with(&self.qemu, &self.elf, &self.machine, &self.icount, storage)?;
         // Swap the fresh process in; the old (already dead) one is dropped with `fresh`.
         let old = std::mem::replace(self, fresh);
         drop(old);

@@ -75,7 +75,7 @@ impl<F: Firmware> SerialAdapter<F> {
     /// Powers the adapter up with the switch at `switch`, and runs until the firmware's
     /// first buffers are in the transceiver.
     pub fn new(firmware: F, switch: u8, baud: dp_consts::Baud) -> io::Result<Self> {
-        let mut bridge = Bridge::new(firmware, CLOCK_HZ, switch, None);
+        let mut bridge = Bridge::new(firmware, CLOCK_HZ, switch);
         bridge.realtime = true;
         bridge.boot(0);
         while !bridge.idle() {

@@ -25,7 +25,10 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(unsafe_code)]
 
-use dp_link::{FromAdapter, HostLed, Led, Leds, NvRecord, Regs, SlaveState, Status, ToAdapter};
+use dp_link::{
+    FromAdapter, HostLed, Led, Leds, NvContents, NvParams, NvRecord, NvWrite, Regs, SlaveState,
+    Status, ToAdapter,
+};
 use dp_slave::{Application, Config, FailSafeReason, Instant, IoSizes, Slave, State};
 use drive_link::{LinkedDrive, ModbusMaster};
 use embedded_hal_nb::serial::{Read, Write};
@@ -151,6 +154,12 @@ pub trait Background {
     fn dpv1_mode(&self) -> bool {
         false
     }
+    /// The settings the storage keeps for 971, as they are now (none: nothing to keep).
+    fn nv_params(&self) -> Option<NvParams> {
+        None
+    }
+    /// The settings the storage kept, at power-up.
+    fn restore_nv_params(&mut self, _params: NvParams) {}
 }
 
 /// A UART that counts what it sent (the simulated drive link's lockstep needs the count).
@@ -273,6 +282,26 @@ impl<U: Read<u8> + Write<u8> + CountsSent> Background for DriveApp<U> {
 
     fn dpv1_mode(&self) -> bool {
         self.dp_mode_dpv1()
+    }
+
+    fn nv_params(&self) -> Option<NvParams> {
+        let p = self.params();
+        Some(NvParams {
+            pkw_rights: p.pkw_rights,
+            pzd_rights: p.pzd_rights,
+            operating_mode: p.operating_mode,
+            control_bit_selectors: p.control_bit_selectors,
+            status_bit_selectors: p.status_bit_selectors,
+        })
+    }
+
+    fn restore_nv_params(&mut self, kept: NvParams) {
+        let p = self.params_mut();
+        p.pkw_rights = kept.pkw_rights;
+        p.pzd_rights = kept.pzd_rights;
+        p.operating_mode = kept.operating_mode;
+        p.control_bit_selectors = kept.control_bit_selectors;
+        p.status_bit_selectors = kept.status_bit_selectors;
     }
 
     fn drive_activity(&self, now_us: u64) -> (bool, bool) {
@@ -426,7 +455,7 @@ pub fn link_state(state: State) -> SlaveState {
 /// The application as the slave sees it, with the adapter's bookkeeping around it.
 struct Recording<A> {
     inner: A,
-    nv_write: Option<NvRecord>,
+    nv_write: Option<NvWrite>,
     /// The record written last since power-up (a restart takes its address).
     last_record: Option<NvRecord>,
     outputs_applied: u32,
@@ -436,7 +465,7 @@ struct Recording<A> {
 impl<A> Recording<A> {
     /// A record for the storage, written with the next status.
     fn write_record(&mut self, record: NvRecord) {
-        self.nv_write = Some(record);
+        self.nv_write = Some(NvWrite::Address(record));
         self.last_record = Some(record);
     }
 }
@@ -612,7 +641,7 @@ impl<A: Application + Background> Adapter<A> {
     /// Power-up with the switch reading and the storage contents.
     // Always inlined, with the constructors it calls: see `drive_app`.
     #[inline(always)]
-    pub fn boot(switch: u8, nv: Option<NvRecord>, app: A) -> Adapter<A> {
+    pub fn boot(switch: u8, nv: NvContents, app: A) -> Adapter<A> {
         let mut adapter = Adapter::unpowered(app);
         adapter.power_up(switch, nv);
         adapter
@@ -662,21 +691,35 @@ impl<A: Application + Background> Adapter<A> {
     }
 
     /// Power-up with the switch reading and the storage contents, in place: the station
-    /// address and where it came from, and what the application is told of it.
-    pub fn power_up(&mut self, switch: u8, nv: Option<NvRecord>) {
-        let addressing = addressing(switch, nv);
+    /// address and where it came from, what the application is told of it, and the settings
+    /// 971 kept (switch 99 leaves them at their defaults and has the storage forget them).
+    pub fn power_up(&mut self, switch: u8, nv: NvContents) {
+        let addressing = addressing(switch, nv.address);
         self.slave.configure(Config {
             address: addressing.address,
             ident_number: dp_consts::ADAPTER_IDENT_NUMBER,
             no_add_chg: addressing.no_add_chg,
             dpv1_status_bytes: false,
         });
-        self.slave.app_mut().nv_write = addressing.nv_write;
+        let factory = addressing.source == AddressSource::FactoryReset;
+        self.slave.app_mut().nv_write = if factory {
+            Some(NvWrite::FactoryDefaults(FACTORY_DEFAULTS))
+        } else {
+            addressing.nv_write.map(NvWrite::Address)
+        };
         self.addressing = addressing;
         self.station_told = addressing.address;
         let app = self.app_mut();
         app.station(addressing.address);
         app.node_address_writable(addressing.source.parameter_may_set());
+        if let Some(params) = nv.params.filter(|_| !factory) {
+            app.restore_nv_params(params);
+        }
+    }
+
+    /// The settings 971 keeps, as they are now (for the firmware's storage write).
+    pub fn nv_params(&self) -> Option<NvParams> {
+        self.app().nv_params()
     }
 
     pub fn addressing(&self) -> Addressing {
@@ -917,6 +960,9 @@ impl<A: Application + Background> Adapter<A> {
         match self.slave.app_mut().inner.take_module_request() {
             Some(ModuleRequest::StoreAddress(address)) => self.store_address(address),
             Some(ModuleRequest::Restart) => self.restart(now),
+            Some(ModuleRequest::SaveSettings) => {
+                self.slave.app_mut().nv_write = Some(NvWrite::Params);
+            }
             None => {}
         }
         // Set_Slave_Add or the drive changed it: 918 and 51.02 follow.
@@ -1210,6 +1256,66 @@ mod tests {
     /// `adapter-in-image`): this constant is the proof that it can be one.
     const UNPOWERED: Adapter<DriveApp<QuietUart>> = Adapter::unpowered(drive_app(QuietUart));
 
+    /// Seed 004 line 921 (issue 30 item 2): the settings 971 kept come back at power-up; switch
+    /// 99 leaves them at their defaults and has the storage forget them with the address.
+    #[test]
+    fn seed_004_line_921_kept_settings_come_back_at_power_up() {
+        let kept = NvParams {
+            pkw_rights: 0,
+            pzd_rights: 0,
+            operating_mode: 1,
+            control_bit_selectors: [1, 2, 3, 4, 5],
+            status_bit_selectors: [3, 2, 1, 0, 3],
+        };
+        let stored = NvContents {
+            address: None,
+            params: Some(kept),
+        };
+        let mut adapter = UNPOWERED;
+        adapter.power_up(0, stored);
+        assert_eq!(adapter.nv_params(), Some(kept));
+        let mut factory = UNPOWERED;
+        factory.power_up(99, stored);
+        let defaults = profidrive::pd_params::Parameters::default();
+        assert_eq!(
+            factory.nv_params().map(|p| (p.pkw_rights, p.pzd_rights)),
+            Some((defaults.pkw_rights, defaults.pzd_rights))
+        );
+        let w = handle(
+            &mut factory,
+            &ToAdapter::Boot {
+                seq: 1,
+                now_us: 0,
+                switch: 99,
+            },
+        );
+        assert_eq!(
+            w.status.iter().find_map(|s| s.nv_write),
+            Some(NvWrite::FactoryDefaults(FACTORY_DEFAULTS))
+        );
+    }
+
+    /// Seed 004 line 1542 (971 = 1, the motor stopped): the adapter asks the storage to keep
+    /// its settings, once, with the next status.
+    #[test]
+    fn seed_004_line_1542_971_stores_the_settings_once() {
+        let mut adapter = UNPOWERED;
+        adapter.power_up(0, NvContents::default());
+        let boot = ToAdapter::Boot {
+            seq: 1,
+            now_us: 0,
+            switch: 0,
+        };
+        handle(&mut adapter, &boot);
+        adapter.app_mut().params_mut().pending_action =
+            Some(profidrive::pd_params::Action::SaveToFlash);
+        let w = handle(&mut adapter, &ToAdapter::Timer { seq: 2, now_us: 1_000 });
+        let writes: Vec<_> = w.status.iter().filter_map(|s| s.nv_write).collect();
+        assert_eq!(writes, [NvWrite::Params]);
+        let w = handle(&mut adapter, &ToAdapter::Timer { seq: 3, now_us: 2_000 });
+        assert!(w.status.iter().all(|s| s.nv_write.is_none()));
+    }
+
     /// Powered up in place, the image takes the address seed 000's switch and storage give,
     /// refuses or allows Set_Slave_Add and the 918 write as they say, and shows the address in
     /// 918 and in the registers of its first write.
@@ -1224,16 +1330,21 @@ mod tests {
             ((17, stored), (17, true, false, None)),
             ((0, stored), (42, true, true, None)),
             ((0, None), (126, false, true, None)),
-            ((99, stored), (126, false, false, Some(FACTORY_DEFAULTS))),
+            ((99, stored), (126, false, false, Some(NvWrite::FactoryDefaults(FACTORY_DEFAULTS)))),
         ];
         for ((switch, nv), (address, no_add_chg, writable, record)) in cases {
             let mut adapter = UNPOWERED;
-            adapter.power_up(switch, nv);
+            adapter.power_up(
+                switch,
+                NvContents {
+                    address: nv,
+                    params: None,
+                },
+            );
             let boot = ToAdapter::Boot {
                 seq: 1,
                 now_us: 0,
                 switch,
-                nv,
             };
             let w = handle(&mut adapter, &boot);
             let regs = w.regs.last().copied().unwrap();
@@ -1317,12 +1428,11 @@ mod tests {
     }
 
     fn booted<A: Application + Background>(switch: u8, app: A) -> Adapter<A> {
-        let mut adapter = Adapter::boot(switch, None, app);
+        let mut adapter = Adapter::boot(switch, NvContents::default(), app);
         let boot = ToAdapter::Boot {
             seq: 1,
             now_us: 0,
             switch,
-            nv: None,
         };
         let w = handle(&mut adapter, &boot);
         assert_eq!(w.regs.last().map(|r| r.seen), Some(1), "{w:?}");
@@ -1413,10 +1523,10 @@ mod tests {
         let stored: Vec<_> = w.status.iter().filter_map(|s| s.nv_write).collect();
         assert_eq!(
             stored,
-            [NvRecord {
+            [NvWrite::Address(NvRecord {
                 address: 42,
                 no_add_chg: false
-            }]
+            })]
         );
         let w = handle(
             &mut adapter,
@@ -1562,7 +1672,7 @@ mod tests {
 
     #[test]
     fn leds_before_data_exchange() {
-        let mut adapter = Adapter::boot(8, None, EchoApp::default());
+        let mut adapter = Adapter::boot(8, NvContents::default(), EchoApp::default());
         let leds = adapter.status().leds;
         assert_eq!(
             (leds.net, leds.online, leds.offline, leds.error),

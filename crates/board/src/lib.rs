@@ -50,6 +50,23 @@ pub struct Memory {
     pub ram_bytes: u32,
 }
 
+/// The non-volatile storage (crates/nv-store): the last pages of the production board's
+/// flash, which the image may not take (its linker script ends the image's flash before them).
+/// Under QEMU, whose flash controllers are not emulated, hal-sim keeps a file of the same pages
+/// that the firmware reads and writes over semihosting.
+pub const NV_STORAGE_PAGES: u32 = 2;
+/// The STM32F103CB's flash page, its erase unit (1 KiB on every medium-density F103).
+pub const NV_PAGE_BYTES: u32 = 1024;
+/// The storage's bytes.
+pub const NV_STORAGE_BYTES: u32 = NV_STORAGE_PAGES * NV_PAGE_BYTES;
+
+impl Memory {
+    /// Where the storage starts: the end of the flash less its pages.
+    pub const fn nv_storage_origin(&self) -> u32 {
+        self.flash_origin + self.flash_bytes - NV_STORAGE_BYTES
+    }
+}
+
 /// Where the image runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Runs {
@@ -118,7 +135,12 @@ impl Board {
     }
 }
 
-/// The production board: an STM32F103C8 at 72 MHz from an 8 MHz crystal.
+/// The production board: an STM32F103CB at 72 MHz from an 8 MHz crystal.
+///
+/// - Part: the CB, the C8's twin with 128 KiB of flash (the same LQFP48, pins, RAM and
+///   peripherals). The C8's 64 KiB held the image until the settings storage of issue 30
+///   (sequential-storage's map, about 13 KB of code, and its two pages): 59 KB of image and 2
+///   KiB of storage would have left the C8 4 KB.
 ///
 /// - Link: USART1 at 4.5 Mbit/s, 8N1, the fastest the F103's USART reaches (APB2 at 72 MHz,
 ///   oversampling by 16). The transceiver answers every DP-V0 request from buffers, so the
@@ -132,8 +154,8 @@ impl Board {
 ///   stack.
 pub const STM32F103: Board = Board {
     name: "stm32f103",
-    chip: "STM32F103C8",
-    description: "STM32F103C8 (production)",
+    chip: "STM32F103CB",
+    description: "STM32F103CB (production)",
     mcu_clock_hz: 72_000_000,
     cycles_per_instruction_pct: 150,
     irq_entry_cycles: 12,
@@ -145,14 +167,14 @@ pub const STM32F103: Board = Board {
     },
     memory: Memory {
         flash_origin: 0x0800_0000,
-        flash_bytes: 64 * 1024,
+        flash_bytes: 128 * 1024,
         ram_origin: 0x2000_0000,
         ram_bytes: 20 * 1024,
     },
     link_queue_frames: 4,
-    // 48 KiB of the 64 (40 KiB before DP-V1, which took 5.3 KiB of it), so that what follows
-    // has a quarter of the chip.
-    flash_budget: 48 * 1024,
+    // 96 KiB of the 128, so that what follows has a quarter of the chip (on the C8: 40 KiB of
+    // its 64 before DP-V1, which took 5.3 KiB, then 48 KiB; the settings storage took 13 KB).
+    flash_budget: 96 * 1024,
     runs: Runs::Probe,
 };
 
@@ -181,7 +203,7 @@ pub const LM3S6965_QEMU: Board = Board {
 /// "The production board under emulation"); hal-sim charges the production board's time.
 pub const STM32F103_QEMU: Board = Board {
     name: "stm32f103-qemu",
-    description: "STM32F103C8 code on QEMU stm32vldiscovery",
+    description: "STM32F103CB code on QEMU stm32vldiscovery",
     memory: Memory {
         flash_origin: 0x0800_0000,
         flash_bytes: 128 * 1024,
@@ -196,7 +218,7 @@ pub const STM32F103_QEMU: Board = Board {
     // and 1 KiB for the simulation's own code, which the production image has not (the pipe
     // to hal-sim over semihosting, the instruction counts, defmt over semihosting). The
     // production image keeps its own budget.
-    flash_budget: 48 * 1024 + 5 * 1024 + 1024,
+    flash_budget: 96 * 1024 + 5 * 1024 + 1024,
     runs: Runs::Qemu {
         machine: "stm32vldiscovery",
     },
@@ -230,7 +252,7 @@ mod tests {
         for board in &BOARDS {
             assert_eq!(by_name(board.name), Some(board));
             assert!(
-                board.flash_budget <= board.memory.flash_bytes,
+                board.flash_budget <= board.memory.flash_bytes - NV_STORAGE_BYTES,
                 "{}",
                 board.name
             );

@@ -66,18 +66,27 @@ pub struct NvContents {
     pub params: Option<NvParams>,
 }
 
+/// A write the storage must carry out now ([`Status::nv_write`]). The settings travel no
+/// further than the firmware, which reads them from the adapter: the link says only that they
+/// were stored.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NvWrite {
+    /// The station address record (Set_Slave_Add, 918).
+    Address(NvRecord),
+    /// The settings as they are now (971).
+    Params,
+    /// Switch 99 at power-up: the factory address record, and no settings (their defaults).
+    FactoryDefaults(NvRecord),
+}
+
 /// Transceiver to MCU.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ToAdapter<'a> {
-    /// Power-up. On the QEMU board hal-sim also emulates the address switch (two decimal
-    /// digits, 0-99) and the non-volatile storage; a real board reads its own.
-    Boot {
-        seq: u32,
-        now_us: u64,
-        switch: u8,
-        nv: Option<NvRecord>,
-    },
+    /// Power-up, with the address switch (two decimal digits, 0-99) that the transceiver
+    /// reads (hal-sim emulates it). The storage is the MCU's own (its flash).
+    Boot { seq: u32, now_us: u64, switch: u8 },
     /// A request for the firmware's decision, already answered on the bus by the transceiver:
     /// its last stop bit ended at `now_us`, at rate index `baud` (`dp_consts::Baud::index`).
     Telegram {
@@ -304,8 +313,9 @@ pub struct Status {
     pub address: u8,
     pub state: SlaveState,
     pub leds: Leds,
-    /// A record the non-volatile storage must now hold.
-    pub nv_write: Option<NvRecord>,
+    /// A record the MCU's non-volatile storage must now hold (the firmware writes it; the
+    /// transceiver's side only notes it).
+    pub nv_write: Option<NvWrite>,
     /// When the firmware must be woken ([`ToAdapter::Timer`]): the drive link's answer
     /// deadline or keep-alive.
     pub wake_at_us: Option<u64>,
@@ -497,10 +507,10 @@ mod tests {
                 online: Led::On,
                 ..Leds::default()
             },
-            nv_write: Some(NvRecord {
+            nv_write: Some(NvWrite::Address(NvRecord {
                 address: 42,
                 no_add_chg: true,
-            }),
+            })),
             wake_at_us: Some(1_000_000),
             drive_link_error: 0x22,
             outputs_applied: 7,
@@ -540,7 +550,6 @@ mod tests {
                 seq: 0,
                 now_us: 0,
                 switch: 99,
-                nv: None,
             },
             ToAdapter::Telegram {
                 seq: 1,

@@ -120,7 +120,7 @@ impl Pair {
     /// `dpv1`: Set_Prm carries DPV1_Status_1-3 on both sides.
     fn with(switch: u8, dpv1: bool) -> Pair {
         let app = Plant { dpv1, ..app() };
-        let adapter = Adapter::boot(switch, None, app.clone());
+        let adapter = Adapter::boot(switch, Default::default(), app.clone());
         let a = adapter.addressing();
         let reference = Slave::new(
             Config {
@@ -146,7 +146,6 @@ impl Pair {
             seq,
             now_us: 0,
             switch,
-            nv: None,
         });
         pair
     }

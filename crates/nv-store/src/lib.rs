@@ -22,7 +22,7 @@ use core::future::Future;
 use core::ops::Range;
 use core::pin::pin;
 use core::task::{Context, Poll, Waker};
-use dp_link::{NvContents, NvParams, NvRecord};
+use dp_link::{NvContents, NvParams, NvRecord, NvWrite};
 use embedded_storage_async::nor_flash::NorFlash;
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage, SerializationError};
@@ -100,6 +100,23 @@ impl<F: NorFlash> Store<F> {
     /// a second programming the STM32F1's flash allows only as all zeros.
     pub fn forget_params(&mut self) -> Result<(), Error<F::Error>> {
         self.store(KEY_PARAMS, &None::<NvParams>)
+    }
+
+    /// Carries out the write a status asked for: `params` are the adapter's settings now
+    /// (971 stores them as they are).
+    pub fn carry_out(
+        &mut self,
+        write: NvWrite,
+        params: Option<NvParams>,
+    ) -> Result<(), Error<F::Error>> {
+        match write {
+            NvWrite::Address(record) => self.write_address(record),
+            NvWrite::Params => params.map_or(Ok(()), |p| self.write_params(p)),
+            NvWrite::FactoryDefaults(record) => {
+                self.write_address(record)?;
+                self.forget_params()
+            }
+        }
     }
 
     /// The flash back (the host's view of what a board would keep).

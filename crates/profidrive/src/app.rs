@@ -100,6 +100,8 @@ pub enum ModuleRequest {
     StoreAddress(u8),
     /// 972: restart the module.
     Restart,
+    /// 971: keep the adapter's settings (927, 928, 930, 933-943) in the non-volatile storage.
+    SaveSettings,
 }
 
 impl<D: Drive> ProfidriveApp<D> {
@@ -171,7 +173,7 @@ impl<D: Drive> ProfidriveApp<D> {
         &mut self.params
     }
 
-    /// 970 and 971 as the application carries them out; 972 is the adapter's
+    /// 970 as the application carries it out; 971 and 972 are the adapter's
     /// ([`ProfidriveApp::take_module_request`]).
     fn carry_out_action(&mut self) {
         match self.params.pending_action {
@@ -179,11 +181,10 @@ impl<D: Drive> ProfidriveApp<D> {
                 self.params.pending_action = None;
                 self.params.restore_defaults();
             }
-            // Seed 000's drive keeps every parameter a channel writes in its non-volatile
-            // memory at once (the PZD values are run-time values, not parameters to store),
-            // and has no command to store: 971 has nothing left to do.
-            Some(Action::SaveToFlash) => self.params.pending_action = None,
-            Some(Action::Restart) | None => {}
+            // The adapter's own settings go to its storage ([`ModuleRequest::SaveSettings`]);
+            // seed 000's drive keeps every parameter a channel writes in its own non-volatile
+            // memory at once, and has no command to store.
+            Some(Action::SaveToFlash) | Some(Action::Restart) | None => {}
         }
     }
 
@@ -197,6 +198,10 @@ impl<D: Drive> ProfidriveApp<D> {
             Some(Action::Restart) => {
                 self.params.pending_action = None;
                 Some(ModuleRequest::Restart)
+            }
+            Some(Action::SaveToFlash) => {
+                self.params.pending_action = None;
+                Some(ModuleRequest::SaveSettings)
             }
             _ => None,
         }

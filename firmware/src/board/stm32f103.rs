@@ -1,4 +1,4 @@
-//! The production board: an STM32F103C8 at 72 MHz (8 MHz crystal, PLL x9). USART1 (PA9 TX,
+//! The production board: an STM32F103CB at 72 MHz (8 MHz crystal, PLL x9). USART1 (PA9 TX,
 //! PA10 RX) carries the link to the transceiver FPGA at 4.5 Mbit/s, the fastest USART1 runs at
 //! 72 MHz. It receives by DMA (DMA1 channel 5, round and round a ring) and interrupts once a
 //! frame, on the idle character the transceiver leaves after each: a byte every 2.2 µs is 160

@@ -170,7 +170,7 @@ pub fn set_slave_add<F: Firmware>(
     sim.run_for_us(1_000)?;
     c.check(
         "storage holds address 42",
-        sim.bridge.nv
+        sim.bridge.stored()?.address
             == Some(NvRecord {
                 address: 42,
                 no_add_chg: false,
@@ -196,7 +196,7 @@ pub fn factory_reset<F: Firmware>(
     c.check("switch 99: address 126", sim.bridge.status.address == 126);
     c.check(
         "storage reset to the factory defaults",
-        sim.bridge.nv == Some(adapter::FACTORY_DEFAULTS),
+        sim.bridge.stored()?.address == Some(adapter::FACTORY_DEFAULTS),
     );
     sim.start_master(MasterSetup::new(baud, 126));
     let ok = exchange(sim, 20, limit_us(baud))?;

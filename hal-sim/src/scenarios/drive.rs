@@ -777,7 +777,7 @@ pub fn fieldbus_group<F: Firmware>(
     );
     c.check(
         "the storage keeps address 30",
-        sim.bridge.nv.is_some_and(|r| r.address == 30),
+        sim.bridge.stored()?.address.is_some_and(|r| r.address == 30),
     );
     let mut at_30 = setup(Ppo::Ppo2, prm);
     at_30.slave_address = 30;
@@ -801,7 +801,7 @@ pub fn fieldbus_group<F: Firmware>(
     c.check(
         "PKW write 918 = 40 (switch at 0): accepted, the storage keeps 40, the adapter still at 30",
         pd_reply(&r) == Some((ResponseLabel::Word, 40))
-            && sim.bridge.nv.is_some_and(|r| r.address == 40)
+            && sim.bridge.stored()?.address.is_some_and(|r| r.address == 40)
             && sim.bridge.status.address == 30,
     );
     out[4] = pd::OPERATE;
@@ -835,10 +835,31 @@ pub fn fieldbus_group<F: Firmware>(
     );
     let mut at_40 = setup(Ppo::Ppo2, prm);
     at_40.slave_address = 40;
-    let ok = start(sim, at_40)?;
+    let ok = start(sim, at_40.clone())?;
     let r = pkw(sim, pd_request(RequestLabel::Read, 972, 0, 0), &out[4..])?;
     c.check(
         "data exchange at 40; 972 reads 0 again after the restart",
+        ok && pd_reply(&r) == Some((ResponseLabel::Word, 0)),
+    );
+
+    // Seed 004 line 921 and 971 (issue 30 item 2): 971 keeps the settings in the storage,
+    // and a power cycle brings them back.
+    let write_928 = pkw(sim, pd_request(RequestLabel::WriteWord, 928, 0, 0), &out[4..])?;
+    let write_971 = pkw(sim, pd_request(RequestLabel::WriteWord, 971, 0, 1), &out[4..])?;
+    sim.run_for_us(1_000)?;
+    let kept = sim.bridge.stored()?.params;
+    c.check(
+        "928 = 0, then 971 = 1 with the motor stopped: both accepted, the storage keeps 928 = 0",
+        pd_reply(&write_928) == Some((ResponseLabel::Word, 0))
+            && pd_reply(&write_971) == Some((ResponseLabel::Word, 1))
+            && kept.is_some_and(|p| p.pzd_rights == 0),
+    );
+    sim.stop_master();
+    sim.power_cycle()?;
+    let ok = start(sim, at_40)?;
+    let r = pkw(sim, pd_request(RequestLabel::Read, 928, 0, 0), &out[4..])?;
+    c.check(
+        "after a power cycle: data exchange at 40, and 928 reads 0, as 971 kept it",
         ok && pd_reply(&r) == Some((ResponseLabel::Word, 0)),
     );
     Ok(Vec::new())

@@ -47,7 +47,10 @@ mod kept {
         let Some(write) = critical_section::with(|cs| PENDING.borrow(cs).take()) else {
             return;
         };
-        if super::storage::store().carry_out(write, adapter.nv_params()).is_err() {
+        if super::storage::store()
+            .carry_out(write, adapter.nv_params())
+            .is_err()
+        {
             warn!("storage: the write failed; the settings hold until the next power-up");
         }
     }
@@ -145,13 +148,18 @@ mod storage {
                 return Err(FlashError::NotAligned);
             }
             check(from, (to - from) as usize, PAGE)?;
-            (from..to).step_by(PAGE as usize).try_for_each(backend::erase_page)
+            (from..to)
+                .step_by(PAGE as usize)
+                .try_for_each(backend::erase_page)
         }
 
         async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), FlashError> {
             check(offset, bytes.len(), 2)?;
             for (k, half) in bytes.chunks_exact(2).enumerate() {
-                backend::program(offset + 2 * k as u32, u16::from_le_bytes([half[0], half[1]]))?;
+                backend::program(
+                    offset + 2 * k as u32,
+                    u16::from_le_bytes([half[0], half[1]]),
+                )?;
             }
             Ok(())
         }
@@ -189,7 +197,9 @@ mod storage {
             let sr = flash.sr().read();
             let refused = sr.pgerr().bit_is_set() || sr.wrprterr().bit_is_set();
             // The flags clear by writing 1.
-            flash.sr().write(|w| w.eop().set_bit().pgerr().set_bit().wrprterr().set_bit());
+            flash
+                .sr()
+                .write(|w| w.eop().set_bit().pgerr().set_bit().wrprterr().set_bit());
             flash.cr().write(|w| w.lock().set_bit());
             if refused {
                 Err(FlashError::Refused)
@@ -285,5 +295,4 @@ mod storage {
             write(offset, &half.to_le_bytes())
         }
     }
-
 }

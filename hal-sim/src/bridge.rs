@@ -37,21 +37,10 @@ use std::io;
 /// An event for the MCU, owned.
 #[derive(Clone, Debug, PartialEq, Eq)]
 enum Event {
-    Boot {
-        seq: u32,
-        switch: u8,
-    },
-    Telegram {
-        seq: u32,
-        baud: u8,
-        bytes: Vec<u8>,
-    },
-    Watchdog {
-        seq: u32,
-    },
-    Timer {
-        seq: u32,
-    },
+    Boot { seq: u32, switch: u8 },
+    Telegram { seq: u32, baud: u8, bytes: Vec<u8> },
+    Watchdog { seq: u32 },
+    Timer { seq: u32 },
 }
 
 /// An event on its way to the MCU.
@@ -822,10 +811,7 @@ mod tests {
         let link = board.link;
         assert!(link.dma_writes && link.idle_bytes_after_frame == 1);
         bridge.boot(0);
-        let boot_len = encoded_len(
-            &Event::Boot { seq: 1, switch: 5 },
-            0,
-        );
+        let boot_len = encoded_len(&Event::Boot { seq: 1, switch: 5 }, 0);
         // The Boot reaches the MCU after its bytes and the idle character, plus the entry.
         let arrival = link.transfer_ns(boot_len + 1);
         assert_eq!(bridge.next_ns(), Some(arrival + board.irq_entry_ns()));

@@ -1309,10 +1309,22 @@ mod tests {
         handle(&mut adapter, &boot);
         adapter.app_mut().params_mut().pending_action =
             Some(profidrive::pd_params::Action::SaveToFlash);
-        let w = handle(&mut adapter, &ToAdapter::Timer { seq: 2, now_us: 1_000 });
+        let w = handle(
+            &mut adapter,
+            &ToAdapter::Timer {
+                seq: 2,
+                now_us: 1_000,
+            },
+        );
         let writes: Vec<_> = w.status.iter().filter_map(|s| s.nv_write).collect();
         assert_eq!(writes, [NvWrite::Params]);
-        let w = handle(&mut adapter, &ToAdapter::Timer { seq: 3, now_us: 2_000 });
+        let w = handle(
+            &mut adapter,
+            &ToAdapter::Timer {
+                seq: 3,
+                now_us: 2_000,
+            },
+        );
         assert!(w.status.iter().all(|s| s.nv_write.is_none()));
     }
 
@@ -1330,7 +1342,15 @@ mod tests {
             ((17, stored), (17, true, false, None)),
             ((0, stored), (42, true, true, None)),
             ((0, None), (126, false, true, None)),
-            ((99, stored), (126, false, false, Some(NvWrite::FactoryDefaults(FACTORY_DEFAULTS)))),
+            (
+                (99, stored),
+                (
+                    126,
+                    false,
+                    false,
+                    Some(NvWrite::FactoryDefaults(FACTORY_DEFAULTS)),
+                ),
+            ),
         ];
         for ((switch, nv), (address, no_add_chg, writable, record)) in cases {
             let mut adapter = UNPOWERED;

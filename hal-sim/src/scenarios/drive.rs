@@ -777,7 +777,10 @@ pub fn fieldbus_group<F: Firmware>(
     );
     c.check(
         "the storage keeps address 30",
-        sim.bridge.stored()?.address.is_some_and(|r| r.address == 30),
+        sim.bridge
+            .stored()?
+            .address
+            .is_some_and(|r| r.address == 30),
     );
     let mut at_30 = setup(Ppo::Ppo2, prm);
     at_30.slave_address = 30;
@@ -801,7 +804,11 @@ pub fn fieldbus_group<F: Firmware>(
     c.check(
         "PKW write 918 = 40 (switch at 0): accepted, the storage keeps 40, the adapter still at 30",
         pd_reply(&r) == Some((ResponseLabel::Word, 40))
-            && sim.bridge.stored()?.address.is_some_and(|r| r.address == 40)
+            && sim
+                .bridge
+                .stored()?
+                .address
+                .is_some_and(|r| r.address == 40)
             && sim.bridge.status.address == 30,
     );
     out[4] = pd::OPERATE;
@@ -844,8 +851,16 @@ pub fn fieldbus_group<F: Firmware>(
 
     // Seed 004 line 921 and 971 (issue 30 item 2): 971 keeps the settings in the storage,
     // and a power cycle brings them back.
-    let write_928 = pkw(sim, pd_request(RequestLabel::WriteWord, 928, 0, 0), &out[4..])?;
-    let write_971 = pkw(sim, pd_request(RequestLabel::WriteWord, 971, 0, 1), &out[4..])?;
+    let write_928 = pkw(
+        sim,
+        pd_request(RequestLabel::WriteWord, 928, 0, 0),
+        &out[4..],
+    )?;
+    let write_971 = pkw(
+        sim,
+        pd_request(RequestLabel::WriteWord, 971, 0, 1),
+        &out[4..],
+    )?;
     sim.run_for_us(1_000)?;
     let kept = sim.bridge.stored()?.params;
     c.check(

@@ -190,7 +190,7 @@ pub const LM3S6965_QEMU: Board = Board {
         ram_origin: 0x2000_0000,
         ram_bytes: 64 * 1024,
     },
-    flash_budget: 256 * 1024,
+    flash_budget: 256 * 1024 - NV_STORAGE_BYTES,
     runs: Runs::Qemu {
         machine: "lm3s6965evb",
     },

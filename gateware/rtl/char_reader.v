@@ -36,6 +36,9 @@ module char_reader #(
   output wire [10:0]           shift_o,
   output wire                  tie_o,
   output wire [1:0]            glitches_o,
+  // What glitches_o becomes at this clock's edge: the search decides on the reading through
+  // this clock, this clock's line edge included.
+  output wire [1:0]            glitches_next_o,
   output wire                  pair_open_o,
   output wire [PhaseWidth-1:0] rem_o,
   output wire [PhaseWidth:0]   lead_o,
@@ -163,6 +166,7 @@ module char_reader #(
   assign shift_o     = shift_q;
   assign tie_o       = tie_q;
   assign glitches_o  = glitches_q;
+  assign glitches_next_o = glitches_d;
   assign pair_open_o = pair_open_q;
   assign rem_o       = rem_q;
   assign lead_o      = lead_q;

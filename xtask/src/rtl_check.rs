@@ -55,6 +55,7 @@ pub fn run(args: &[String]) -> Result<()> {
             blocks::char_reader(run_time),
             blocks::char_reader_cases(&reader_rates, run_time, quick),
         ),
+        (blocks::autobaud(), blocks::autobaud_cases(quick)),
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
     ];

@@ -164,6 +164,19 @@ struct RateWindow {
     stop_end: u64,
 }
 
+/// One channel's fixed figures, as the RTL takes them as parameters
+/// (gateware/rtl/autobaud_channels.svh).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChannelFigures {
+    pub reader: CharReader,
+    pub glitch: Tick,
+    pub tsyn: Tick,
+    pub stop_middle: Tick,
+    pub stop_end: Tick,
+    /// A fall fewer clocks than this after the start edge is inside the start bit.
+    pub start_bit_clocks: Tick,
+}
+
 /// The search block's fixed configuration.
 #[derive(Clone, Debug)]
 pub struct AutoBaud {
@@ -191,6 +204,21 @@ impl AutoBaud {
             glitch: timings.map(|t| crate::filter::glitch_len_for(t.clocks_per_bit()).into()),
             tsyn: timings.map(|t| t.clocks_for(2 * TSYN_BITS as u64 - 1, 2)),
             readers: timings.map(CharReader::new),
+        }
+    }
+
+    /// The figures of the channel of `baud`.
+    pub fn channel_figures(&self, baud: Baud) -> ChannelFigures {
+        let r = baud.index();
+        let w = &self.windows[r];
+        ChannelFigures {
+            reader: self.readers[r],
+            glitch: self.glitch[r],
+            tsyn: self.tsyn[r],
+            stop_middle: w.stop_middle,
+            stop_end: w.stop_end,
+            // `at * inc < modulo` for a whole `at`.
+            start_bit_clocks: w.modulo.div_ceil(w.inc),
         }
     }
 
@@ -313,7 +341,9 @@ impl AutoBaud {
         }
         // The idle line: selects, no branches, over the ten rates.
         for r in 0..RATES {
-            let cancels = now.wrapping_sub(q.pending[r]) <= self.glitch[r];
+            // `Tick::MAX`: no edge can cancel (not the wrapped difference, which near tick 0
+            // is small; the RTL keeps a flag).
+            let cancels = q.pending[r] != Tick::MAX && now - q.pending[r] <= self.glitch[r];
             let (since, before) = (q.high_since[r], q.high_before[r]);
             (q.high_since[r], q.high_before[r]) = match (rose, cancels) {
                 (true, false) => (now, since),

@@ -277,7 +277,7 @@ impl Transceiver {
 
     /// The rate the receiver is on (locked or on trial): the search's decisions at it, and its
     /// rejections, change nothing then.
-    fn heard(&self) -> Option<Baud> {
+    pub fn heard(&self) -> Option<Baud> {
         self.rx.and(self.state.baud())
     }
 

@@ -4,8 +4,10 @@
 //! calls, so the two sides see one stimulus by construction. The model runs strict: one tick a
 //! clock, no fast mode.
 
+pub mod autobaud;
 mod char_reader;
 mod watchdog;
+pub use autobaud::{autobaud, autobaud_cases};
 pub use char_reader::{char_reader, char_reader_cases, run_time_width, width_of};
 pub use watchdog::{baud_watchdog_width, dp_watchdog_width, watchdog, watchdog_cases};
 
@@ -23,7 +25,7 @@ use rand_chacha::ChaCha8Rng;
 /// them yet (README "Gateware").
 pub const TRANSCEIVER_BLOCKS: [(&str, bool); 8] = [
     ("line_sync (synchroniser)", true),
-    ("autobaud", false),
+    ("autobaud", true),
     ("edge_rx", false),
     ("delimiter", true),
     ("uart_tx (min TSDR, driver enable)", true),

@@ -25,6 +25,8 @@ pub fn build(block: &Block, gateware: &Path, out: &Path) -> io::Result<PathBuf> 
         .arg("--Mdir")
         .arg(&mdir)
         .args(["-o", "check"]);
+    // `include files sit beside the RTL.
+    cmd.arg(format!("-I{}", gateware.join("rtl").display()));
     for (param, value) in &block.params {
         cmd.arg(format!("-G{param}={value}"));
     }

@@ -1,0 +1,82 @@
+// The baud-rate search: dp_phy::autobaud::AutoBaud's twin (crates/dp-phy/src/autobaud.rs),
+// one autobaud_channel per rate at that rate's constant figures (autobaud_channels.svh,
+// written from the model by crates/rtl-check), and what the model's clock() returns.
+//
+// Each clock takes the synchronised line (level_i, and whether it fell or rose on this clock)
+// and the rate the receiver is on (heard_valid_i, heard_i: an index into Baud::ALL, 9.6k
+// first). A decision falls due in a channel at the middle of its stop bit (or its end); of
+// those due on one clock, the fastest rate's detection goes out, else the fastest rate's
+// rejection (valid_o with detect_o low). With a rate heard, that rate's own decisions and
+// every rejection go nowhere, as in the model. The line's last edge is the one register the
+// channels share (its age, saturating past any rate's glitch).
+`default_nettype none
+
+module autobaud #(
+  parameter int IdleWidth = 18,
+  parameter int AgeWidth  = 12,
+  parameter int TimeWidth = 16,
+  parameter int AltWidth  = 13
+) (
+  input  wire                 clk_i,
+  input  wire                 rst_ni,
+  input  wire                 level_i,
+  input  wire                 fell_i,
+  input  wire                 rose_i,
+  input  wire                 heard_valid_i,
+  input  wire [3:0]           heard_i,
+  output logic                valid_o,
+  output logic                detect_o,
+  output logic [3:0]          rate_o,
+  output logic [7:0]          byte_o,
+  output logic [1:0]          reject_code_o,
+  output logic [TimeWidth-1:0] start_age_o,
+  output wire  [9:0]          measuring_o
+);
+  localparam int Rates = 10;
+
+  logic [AgeWidth-1:0] edge_age_q, edge_age_d;
+
+  logic [Rates-1:0]                heard, detect, reject;
+  logic [Rates-1:0][1:0]           reject_code;
+  logic [Rates-1:0][7:0]           bytes;
+  logic [Rates-1:0][TimeWidth-1:0] start_age;
+
+  always_comb begin
+    edge_age_d = fell_i || rose_i ? AgeWidth'(1)
+               : &edge_age_q ? edge_age_q : edge_age_q + 1'b1;
+    for (int r = 0; r < Rates; r++) heard[r] = heard_valid_i && heard_i == 4'(r);
+    // The fastest rate first; a detection before any rejection.
+    valid_o       = 1'b0;
+    detect_o      = 1'b0;
+    rate_o        = '0;
+    byte_o        = '0;
+    reject_code_o = '0;
+    start_age_o   = '0;
+    for (int r = 0; r < Rates; r++) begin
+      if (reject[r]) begin
+        valid_o       = 1'b1;
+        rate_o        = 4'(r);
+        reject_code_o = reject_code[r];
+        byte_o        = '0;
+        start_age_o   = '0;
+      end
+    end
+    for (int r = 0; r < Rates; r++) begin
+      if (detect[r]) begin
+        valid_o       = 1'b1;
+        detect_o      = 1'b1;
+        rate_o        = 4'(r);
+        byte_o        = bytes[r];
+        reject_code_o = '0;
+        start_age_o   = start_age[r];
+      end
+    end
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) edge_age_q <= '0;
+    else edge_age_q <= edge_age_d;
+  end
+
+`include "autobaud_channels.svh"
+endmodule

@@ -1,0 +1,292 @@
+// One rate's channel of the baud-rate search: a ChannelQ of dp_phy::autobaud::AutoBaud
+// (crates/dp-phy/src/autobaud.rs) with that rate's idle line (its pending, high_since and
+// high_before), register for register.
+//
+// It follows the idle line with the rate's glitches removed (an edge within Glitch clocks of
+// the last one it kept cancels both), starts a measurement at a fall after Tsyn clocks of that
+// line and a high longer than a glitch, reads the character from the start and from a second
+// candidate start inside the start bit (two char_readers at the rate's constant figures), and
+// decides at the middle of the last candidate's stop bit (at its end with the line low there):
+// a start delimiter (detect_o), or why not (reject_o), both for this clock only.
+//
+// The model keeps ticks; this keeps the clocks since them, which is what it compares: the
+// idle line's high_since and high_before as clocks since (saturating, IdleWidth bits, past any
+// Tsyn), the pending edge and the line's last edge as their age (AgeWidth bits, past any
+// glitch), the measurement's start as since_t0_q and its decision as the clocks left to it.
+// What the decision reads is the reader's registers with this clock's line lasting (the
+// model clocks the reader through this clock first: the same bits, and this clock's edge
+// counts in the glitches, char_reader's glitches_next_o).
+`default_nettype none
+
+module autobaud_channel #(
+  parameter int PhaseWidth       = 13,
+  parameter int Inc              = 1,
+  parameter int Modulo           = 5000,
+  parameter int Quarter          = 1250,
+  parameter int ThreeQuarters    = 3750,
+  parameter int HalfLessInc      = 2499,
+  parameter int TwoInc           = 2,
+  parameter int ModuloLessInc    = 4999,
+  parameter int ModuloLessTwoInc = 4998,
+  parameter int Glitch           = 2499,
+  parameter int Tsyn             = 162500,
+  parameter int StopMiddle       = 52500,
+  parameter int StopEnd          = 55000,
+  parameter int StartBitClocks   = 5000,
+  parameter int IdleWidth        = 18,
+  parameter int AgeWidth         = 12,
+  parameter int TimeWidth        = 16,
+  parameter int AltWidth         = 13
+) (
+  input  wire                 clk_i,
+  input  wire                 rst_ni,
+  input  wire                 level_i,
+  input  wire                 fell_i,
+  input  wire                 rose_i,
+  // Clocks since the line's last edge, glitch or not (AutoBaudQ::last_edge).
+  input  wire [AgeWidth-1:0]  edge_age_i,
+  // The receiver is on this rate; on any rate.
+  input  wire                 heard_i,
+  input  wire                 heard_any_i,
+  output wire                 detect_o,
+  output wire                 reject_o,
+  // Reject: 0 off the grid, 1 no character, 2 no delimiter.
+  output wire [1:0]           reject_code_o,
+  output wire [7:0]           byte_o,
+  // Clocks since the detected character's start edge.
+  output wire [TimeWidth-1:0] start_age_o,
+  output wire                 measuring_o
+);
+  localparam int MaxEdges = 16;
+  localparam int BalanceWidth = PhaseWidth + 1;
+
+  logic                 pend_valid_q, pend_valid_d;
+  logic [AgeWidth-1:0]  pend_age_q, pend_age_d;
+  logic [IdleWidth-1:0] high_for_q, high_for_d;
+  logic [IdleWidth-1:0] before_for_q, before_for_d;
+  logic                 measuring_q, measuring_d;
+  logic [TimeWidth-1:0] since_t0_q, since_t0_d;
+  logic [TimeWidth-1:0] decide_in_q, decide_in_d;
+  logic [4:0]           n_edges_q, n_edges_d;
+  logic [AltWidth-1:0]  alt_q, alt_d;
+  logic                 deferred_q, deferred_d;
+
+  logic                 edge_now, cancels, after_glitch, starts, second, overflow, due;
+  logic                 start1;
+  logic [IdleWidth-1:0] high_next, before_next;
+
+  // The two readers: from the start edge, and from the second candidate start.
+  logic [3:0]              bit0, bit1;
+  logic [10:0]             shift0, shift1;
+  logic                    tie0, tie1;
+  logic [1:0]              glitches0, glitches1;
+  logic [BalanceWidth-1:0] lead0, lead1, lag0, lag1;
+
+  function automatic logic [IdleWidth-1:0] idle_inc(input logic [IdleWidth-1:0] v);
+    return &v ? v : v + 1'b1;
+  endfunction
+
+  // A reading as dp_phy::autobaud::delimiter_read judges it: {ok, code, byte}.
+  function automatic logic [10:0] judge(
+      input logic [3:0] bit_n, input logic [10:0] shift, input logic tie,
+      input logic [1:0] glitches, input logic [BalanceWidth-1:0] lead,
+      input logic [BalanceWidth-1:0] lag, input logic level);
+    logic [BalanceWidth-1:0] total;
+    logic [10:0] past, bits;
+    logic        tied;
+    logic [7:0]  data;
+    total = level ? lead : lag;
+    past  = shift >> (4'd11 - bit_n);
+    for (int i = 0; i < 11; i++) begin
+      if (4'(i) < bit_n) bits[i] = past[i];
+      else if (4'(i) == bit_n) bits[i] = !total[BalanceWidth-1] && total != '0;
+      else bits[i] = level;
+    end
+    tied = tie || (bit_n < 4'd11 && total == '0);
+    data = bits[8:1];
+    if (tied || glitches > 2'd1) judge = {1'b0, 2'd0, 8'd0};
+    else if (bits[0] || !bits[10] || bits[9] != ^data) judge = {1'b0, 2'd1, 8'd0};
+    else if (data != 8'h10 && data != 8'h68 && data != 8'hA2 && data != 8'hDC)
+      judge = {1'b0, 2'd2, 8'd0};
+    else judge = {1'b1, 2'd0, data};
+  endfunction
+
+  logic [10:0]          from_start, from_alt;
+  logic                 ok;
+  logic [1:0]           code;
+  logic [7:0]           data;
+  logic [AltWidth-1:0]  offset;
+
+  always_comb begin
+    pend_valid_d = pend_valid_q;
+    pend_age_d   = &pend_age_q ? pend_age_q : pend_age_q + 1'b1;
+    high_next    = idle_inc(high_for_q);
+    before_next  = idle_inc(before_for_q);
+    high_for_d   = high_next;
+    before_for_d = before_next;
+    measuring_d  = measuring_q;
+    since_t0_d   = &since_t0_q ? since_t0_q : since_t0_q + 1'b1;
+    decide_in_d  = decide_in_q - 1'b1;
+    n_edges_d    = n_edges_q;
+    alt_d        = alt_q;
+    deferred_d   = deferred_q;
+    edge_now     = fell_i || rose_i;
+    cancels      = pend_valid_q && pend_age_q <= AgeWidth'(Glitch);
+    after_glitch = edge_age_i <= AgeWidth'(Glitch);
+    starts       = fell_i && !after_glitch && high_for_q >= IdleWidth'(Tsyn);
+    overflow     = !starts && measuring_q && edge_now && n_edges_q == 5'(MaxEdges);
+    second       = !starts && measuring_q && fell_i && !overflow && after_glitch
+                   && since_t0_q < TimeWidth'(StartBitClocks);
+    start1       = second;
+    due          = measuring_q && !starts && !second && !overflow && decide_in_q == '0;
+    from_start   = judge(bit0, shift0, tie0, glitches0, lead0, lag0, level_i);
+    from_alt     = judge(bit1, shift1, tie1, glitches1, lead1, lag1, level_i);
+    ok           = 1'b0;
+    code         = 2'd0;
+    data         = 8'd0;
+    offset       = '0;
+
+    // The idle line, with the rate's glitches removed.
+    if (edge_now) begin
+      pend_valid_d = !cancels;
+      pend_age_d   = AgeWidth'(1);
+      if (rose_i && !cancels) begin
+        high_for_d   = IdleWidth'(1);
+        before_for_d = high_next;
+      end else if (fell_i && cancels) begin
+        high_for_d   = before_next;
+        before_for_d = before_next;
+      end
+    end
+
+    // The measurement.
+    if (starts) begin
+      measuring_d = 1'b1;
+      since_t0_d  = TimeWidth'(1);
+      decide_in_d = TimeWidth'(StopMiddle - 1);
+      n_edges_d   = '0;
+      alt_d       = '0;
+      deferred_d  = 1'b0;
+    end else if (overflow) begin
+      measuring_d = 1'b0;
+    end else if (measuring_q && edge_now) begin
+      n_edges_d = n_edges_q + 5'd1;
+      if (second) begin
+        alt_d       = AltWidth'(since_t0_q);
+        decide_in_d = TimeWidth'(StopMiddle - 1);
+        deferred_d  = 1'b0;
+      end
+    end
+
+    // The decision: from the start, or from the second candidate too.
+    if (alt_q == '0) begin
+      {ok, code, data} = from_start;
+    end else if (from_start[10] && from_alt[10] && from_start[7:0] != from_alt[7:0]) begin
+      {ok, code, data} = {1'b0, 2'd0, 8'd0};
+    end else if (from_start[10]) begin
+      {ok, code, data} = from_start;
+    end else if (from_alt[10]) begin
+      {ok, code, data} = from_alt;
+      offset = alt_q;
+    end else begin
+      {ok, code, data} = from_start;
+    end
+    if (due) begin
+      if (!level_i && !deferred_q) begin
+        // Low at the stop bit's middle: the whole stop bit tells.
+        deferred_d  = 1'b1;
+        decide_in_d = TimeWidth'(StopEnd - StopMiddle - 1);
+      end else begin
+        measuring_d = 1'b0;
+      end
+    end
+  end
+
+  logic decides;
+  assign decides       = due && (level_i || deferred_q) && !heard_i;
+  assign detect_o      = decides && ok;
+  assign reject_o      = decides && !ok && !heard_any_i;
+  assign reject_code_o = code;
+  assign byte_o        = data;
+  assign start_age_o   = since_t0_q - TimeWidth'(offset);
+  assign measuring_o   = measuring_q;
+
+  // The readers' other outputs are for their own check (rtl-check's char_reader cases).
+  /* verilator lint_off PINCONNECTEMPTY */
+  char_reader #(.PhaseWidth(PhaseWidth)) u_from_start (
+    .clk_i, .rst_ni,
+    .inc_i                (PhaseWidth'(Inc)),
+    .modulo_i             (PhaseWidth'(Modulo)),
+    .quarter_i            (PhaseWidth'(Quarter)),
+    .three_quarters_i     (PhaseWidth'(ThreeQuarters)),
+    .half_less_inc_i      (PhaseWidth'(HalfLessInc)),
+    .two_inc_i            ((PhaseWidth + 1)'(TwoInc)),
+    .modulo_less_inc_i    (PhaseWidth'(ModuloLessInc)),
+    .modulo_less_two_inc_i(PhaseWidth'(ModuloLessTwoInc)),
+    .start_i              (starts),
+    .level_i,
+    .edge_i               (edge_now),
+    .bit_o                (bit0),
+    .shift_o              (shift0),
+    .tie_o                (tie0),
+    .glitches_o           (),
+    .glitches_next_o      (glitches0),
+    .pair_open_o          (),
+    .rem_o                (),
+    .lead_o               (lead0),
+    .lag_o                (lag0),
+    .pair_left_o          ()
+  );
+
+  char_reader #(.PhaseWidth(PhaseWidth)) u_from_alt (
+    .clk_i, .rst_ni,
+    .inc_i                (PhaseWidth'(Inc)),
+    .modulo_i             (PhaseWidth'(Modulo)),
+    .quarter_i            (PhaseWidth'(Quarter)),
+    .three_quarters_i     (PhaseWidth'(ThreeQuarters)),
+    .half_less_inc_i      (PhaseWidth'(HalfLessInc)),
+    .two_inc_i            ((PhaseWidth + 1)'(TwoInc)),
+    .modulo_less_inc_i    (PhaseWidth'(ModuloLessInc)),
+    .modulo_less_two_inc_i(PhaseWidth'(ModuloLessTwoInc)),
+    .start_i              (start1),
+    .level_i,
+    .edge_i               (edge_now),
+    .bit_o                (bit1),
+    .shift_o              (shift1),
+    .tie_o                (tie1),
+    .glitches_o           (),
+    .glitches_next_o      (glitches1),
+    .pair_open_o          (),
+    .rem_o                (),
+    .lead_o               (lead1),
+    .lag_o                (lag1),
+    .pair_left_o          ()
+  );
+  /* verilator lint_on PINCONNECTEMPTY */
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      pend_valid_q <= 1'b0;
+      pend_age_q   <= '0;
+      high_for_q   <= '0;
+      before_for_q <= '0;
+      measuring_q  <= 1'b0;
+      since_t0_q   <= '0;
+      decide_in_q  <= '0;
+      n_edges_q    <= '0;
+      alt_q        <= '0;
+      deferred_q   <= 1'b0;
+    end else begin
+      pend_valid_q <= pend_valid_d;
+      pend_age_q   <= pend_age_d;
+      high_for_q   <= high_for_d;
+      before_for_q <= before_for_d;
+      measuring_q  <= measuring_d;
+      since_t0_q   <= since_t0_d;
+      decide_in_q  <= decide_in_d;
+      n_edges_q    <= n_edges_d;
+      alt_q        <= alt_d;
+      deferred_q   <= deferred_d;
+    end
+  end
+endmodule

@@ -1,0 +1,133 @@
+// Written by crates/rtl-check (`blocks::autobaud::channels_svh`) from
+// dp_phy::autobaud::AutoBaud::channel_figures at 48 MHz: one channel per rate, 9.6k
+// first. A test holds this file equal to the model's figures; do not edit.
+
+  // 9.6k
+  autobaud_channel #(
+    .PhaseWidth(13), .Inc(1), .Modulo(5000), .Quarter(1250), .ThreeQuarters(3750),
+    .HalfLessInc(2499), .TwoInc(2), .ModuloLessInc(4999), .ModuloLessTwoInc(4998),
+    .Glitch(2499), .Tsyn(162500), .StopMiddle(52500), .StopEnd(55000), .StartBitClocks(5000),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_0 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[0]), .heard_any_i(heard_valid_i), .detect_o(detect[0]),
+    .reject_o(reject[0]), .reject_code_o(reject_code[0]), .byte_o(bytes[0]),
+    .start_age_o(start_age[0]), .measuring_o(measuring_o[0])
+  );
+
+  // 19.2k
+  autobaud_channel #(
+    .PhaseWidth(12), .Inc(1), .Modulo(2500), .Quarter(625), .ThreeQuarters(1875),
+    .HalfLessInc(1249), .TwoInc(2), .ModuloLessInc(2499), .ModuloLessTwoInc(2498),
+    .Glitch(1249), .Tsyn(81250), .StopMiddle(26250), .StopEnd(27500), .StartBitClocks(2500),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_1 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[1]), .heard_any_i(heard_valid_i), .detect_o(detect[1]),
+    .reject_o(reject[1]), .reject_code_o(reject_code[1]), .byte_o(bytes[1]),
+    .start_age_o(start_age[1]), .measuring_o(measuring_o[1])
+  );
+
+  // 45.45k
+  autobaud_channel #(
+    .PhaseWidth(19), .Inc(303), .Modulo(320000), .Quarter(80000), .ThreeQuarters(240000),
+    .HalfLessInc(159697), .TwoInc(606), .ModuloLessInc(319697), .ModuloLessTwoInc(319394),
+    .Glitch(527), .Tsyn(34324), .StopMiddle(11090), .StopEnd(11618), .StartBitClocks(1057),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_2 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[2]), .heard_any_i(heard_valid_i), .detect_o(detect[2]),
+    .reject_o(reject[2]), .reject_code_o(reject_code[2]), .byte_o(bytes[2]),
+    .start_age_o(start_age[2]), .measuring_o(measuring_o[2])
+  );
+
+  // 93.75k
+  autobaud_channel #(
+    .PhaseWidth(10), .Inc(1), .Modulo(512), .Quarter(128), .ThreeQuarters(384),
+    .HalfLessInc(255), .TwoInc(2), .ModuloLessInc(511), .ModuloLessTwoInc(510),
+    .Glitch(255), .Tsyn(16640), .StopMiddle(5376), .StopEnd(5632), .StartBitClocks(512),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_3 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[3]), .heard_any_i(heard_valid_i), .detect_o(detect[3]),
+    .reject_o(reject[3]), .reject_code_o(reject_code[3]), .byte_o(bytes[3]),
+    .start_age_o(start_age[3]), .measuring_o(measuring_o[3])
+  );
+
+  // 187.5k
+  autobaud_channel #(
+    .PhaseWidth(9), .Inc(1), .Modulo(256), .Quarter(64), .ThreeQuarters(192),
+    .HalfLessInc(127), .TwoInc(2), .ModuloLessInc(255), .ModuloLessTwoInc(254),
+    .Glitch(127), .Tsyn(8320), .StopMiddle(2688), .StopEnd(2816), .StartBitClocks(256),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_4 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[4]), .heard_any_i(heard_valid_i), .detect_o(detect[4]),
+    .reject_o(reject[4]), .reject_code_o(reject_code[4]), .byte_o(bytes[4]),
+    .start_age_o(start_age[4]), .measuring_o(measuring_o[4])
+  );
+
+  // 500k
+  autobaud_channel #(
+    .PhaseWidth(7), .Inc(1), .Modulo(96), .Quarter(24), .ThreeQuarters(72),
+    .HalfLessInc(47), .TwoInc(2), .ModuloLessInc(95), .ModuloLessTwoInc(94),
+    .Glitch(47), .Tsyn(3120), .StopMiddle(1008), .StopEnd(1056), .StartBitClocks(96),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_5 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[5]), .heard_any_i(heard_valid_i), .detect_o(detect[5]),
+    .reject_o(reject[5]), .reject_code_o(reject_code[5]), .byte_o(bytes[5]),
+    .start_age_o(start_age[5]), .measuring_o(measuring_o[5])
+  );
+
+  // 1.5M
+  autobaud_channel #(
+    .PhaseWidth(6), .Inc(1), .Modulo(32), .Quarter(8), .ThreeQuarters(24),
+    .HalfLessInc(15), .TwoInc(2), .ModuloLessInc(31), .ModuloLessTwoInc(30),
+    .Glitch(15), .Tsyn(1040), .StopMiddle(336), .StopEnd(352), .StartBitClocks(32),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_6 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[6]), .heard_any_i(heard_valid_i), .detect_o(detect[6]),
+    .reject_o(reject[6]), .reject_code_o(reject_code[6]), .byte_o(bytes[6]),
+    .start_age_o(start_age[6]), .measuring_o(measuring_o[6])
+  );
+
+  // 3M
+  autobaud_channel #(
+    .PhaseWidth(5), .Inc(1), .Modulo(16), .Quarter(4), .ThreeQuarters(12),
+    .HalfLessInc(7), .TwoInc(2), .ModuloLessInc(15), .ModuloLessTwoInc(14),
+    .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176), .StartBitClocks(16),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_7 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[7]), .heard_any_i(heard_valid_i), .detect_o(detect[7]),
+    .reject_o(reject[7]), .reject_code_o(reject_code[7]), .byte_o(bytes[7]),
+    .start_age_o(start_age[7]), .measuring_o(measuring_o[7])
+  );
+
+  // 6M
+  autobaud_channel #(
+    .PhaseWidth(4), .Inc(1), .Modulo(8), .Quarter(2), .ThreeQuarters(6),
+    .HalfLessInc(3), .TwoInc(2), .ModuloLessInc(7), .ModuloLessTwoInc(6),
+    .Glitch(3), .Tsyn(260), .StopMiddle(84), .StopEnd(88), .StartBitClocks(8),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_8 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[8]), .heard_any_i(heard_valid_i), .detect_o(detect[8]),
+    .reject_o(reject[8]), .reject_code_o(reject_code[8]), .byte_o(bytes[8]),
+    .start_age_o(start_age[8]), .measuring_o(measuring_o[8])
+  );
+
+  // 12M
+  autobaud_channel #(
+    .PhaseWidth(3), .Inc(1), .Modulo(4), .Quarter(1), .ThreeQuarters(3),
+    .HalfLessInc(1), .TwoInc(2), .ModuloLessInc(3), .ModuloLessTwoInc(2),
+    .Glitch(1), .Tsyn(130), .StopMiddle(42), .StopEnd(44), .StartBitClocks(4),
+    .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)
+  ) u_channel_9 (
+    .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),
+    .heard_i(heard[9]), .heard_any_i(heard_valid_i), .detect_o(detect[9]),
+    .reject_o(reject[9]), .reject_code_o(reject_code[9]), .byte_o(bytes[9]),
+    .start_age_o(start_age[9]), .measuring_o(measuring_o[9])
+  );

@@ -36,10 +36,12 @@ module autobaud #(
 
   logic [AgeWidth-1:0] edge_age_q, edge_age_d;
 
-  logic [Rates-1:0]                heard, detect, reject;
-  logic [Rates-1:0][1:0]           reject_code;
-  logic [Rates-1:0][7:0]           bytes;
-  logic [Rates-1:0][TimeWidth-1:0] start_age;
+  // Per channel, flat (yosys 0.23 takes no packed arrays of arrays): channel r's field at
+  // [r * width +: width].
+  logic [Rates-1:0]           heard, detect, reject;
+  logic [Rates*2-1:0]         reject_code;
+  logic [Rates*8-1:0]         bytes;
+  logic [Rates*TimeWidth-1:0] start_age;
 
   always_comb begin
     edge_age_d = fell_i || rose_i ? AgeWidth'(1)
@@ -56,7 +58,7 @@ module autobaud #(
       if (reject[r]) begin
         valid_o       = 1'b1;
         rate_o        = 4'(r);
-        reject_code_o = reject_code[r];
+        reject_code_o = reject_code[r*2 +: 2];
         byte_o        = '0;
         start_age_o   = '0;
       end
@@ -66,9 +68,9 @@ module autobaud #(
         valid_o       = 1'b1;
         detect_o      = 1'b1;
         rate_o        = 4'(r);
-        byte_o        = bytes[r];
+        byte_o        = bytes[r*8 +: 8];
         reject_code_o = '0;
-        start_age_o   = start_age[r];
+        start_age_o   = start_age[r*TimeWidth +: TimeWidth];
       end
     end
   end

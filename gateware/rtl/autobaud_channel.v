@@ -33,10 +33,16 @@ module autobaud_channel #(
   parameter int StopMiddle       = 52500,
   parameter int StopEnd          = 55000,
   parameter int StartBitClocks   = 5000,
+  // The rate's own widths: the idle line's clocks past Tsyn, the pending edge's age past
+  // Glitch, a measurement's clocks (a start bit and a character), a start bit's clocks.
   parameter int IdleWidth        = 18,
-  parameter int AgeWidth         = 12,
+  parameter int PendWidth        = 12,
   parameter int TimeWidth        = 16,
-  parameter int AltWidth         = 13
+  parameter int AltWidth         = 13,
+  // The search's: the line's last edge's age (past the slowest rate's glitch), the start age
+  // it puts out.
+  parameter int AgeWidth         = 12,
+  parameter int StartAgeWidth    = 16
 ) (
   input  wire                 clk_i,
   input  wire                 rst_ni,
@@ -54,14 +60,14 @@ module autobaud_channel #(
   output wire [1:0]           reject_code_o,
   output wire [7:0]           byte_o,
   // Clocks since the detected character's start edge.
-  output wire [TimeWidth-1:0] start_age_o,
+  output wire [StartAgeWidth-1:0] start_age_o,
   output wire                 measuring_o
 );
   localparam int MaxEdges = 16;
   localparam int BalanceWidth = PhaseWidth + 1;
 
   logic                 pend_valid_q, pend_valid_d;
-  logic [AgeWidth-1:0]  pend_age_q, pend_age_d;
+  logic [PendWidth-1:0] pend_age_q, pend_age_d;
   logic [IdleWidth-1:0] high_for_q, high_for_d;
   logic [IdleWidth-1:0] before_for_q, before_for_d;
   logic                 measuring_q, measuring_d;
@@ -83,27 +89,25 @@ module autobaud_channel #(
   logic [BalanceWidth-1:0] lead0, lead1, lag0, lag1;
 
   function automatic logic [IdleWidth-1:0] idle_inc(input logic [IdleWidth-1:0] v);
-    return &v ? v : v + 1'b1;
+    idle_inc = (&v) ? v : v + 1'b1;
   endfunction
 
-  // A reading as dp_phy::autobaud::delimiter_read judges it: {ok, code, byte}.
+  // A reading as dp_phy::autobaud::delimiter_read judges it: {ok, code, byte}. At a decision
+  // the stop bit is under way (bit_n 10: it is the sign of this clock's balance) or over
+  // (11): the model asserts it (AutoBaud::decide), and nothing else is built.
   function automatic logic [10:0] judge(
       input logic [3:0] bit_n, input logic [10:0] shift, input logic tie,
       input logic [1:0] glitches, input logic [BalanceWidth-1:0] lead,
       input logic [BalanceWidth-1:0] lag, input logic level);
     logic [BalanceWidth-1:0] total;
-    logic [10:0] past, bits;
-    logic        tied;
+    logic [10:0] bits;
+    logic        over, tied;
     logic [7:0]  data;
     total = level ? lead : lag;
-    past  = shift >> (4'd11 - bit_n);
-    for (int i = 0; i < 11; i++) begin
-      if (4'(i) < bit_n) bits[i] = past[i];
-      else if (4'(i) == bit_n) bits[i] = !total[BalanceWidth-1] && total != '0;
-      else bits[i] = level;
-    end
-    tied = tie || (bit_n < 4'd11 && total == '0);
-    data = bits[8:1];
+    over  = bit_n == 4'd11;
+    bits  = over ? shift : {!total[BalanceWidth-1] && total != '0, shift[10:1]};
+    tied  = tie || (!over && total == '0);
+    data  = bits[8:1];
     if (tied || glitches > 2'd1) judge = {1'b0, 2'd0, 8'd0};
     else if (bits[0] || !bits[10] || bits[9] != ^data) judge = {1'b0, 2'd1, 8'd0};
     else if (data != 8'h10 && data != 8'h68 && data != 8'hA2 && data != 8'hDC)
@@ -131,7 +135,7 @@ module autobaud_channel #(
     alt_d        = alt_q;
     deferred_d   = deferred_q;
     edge_now     = fell_i || rose_i;
-    cancels      = pend_valid_q && pend_age_q <= AgeWidth'(Glitch);
+    cancels      = pend_valid_q && pend_age_q <= PendWidth'(Glitch);
     after_glitch = edge_age_i <= AgeWidth'(Glitch);
     starts       = fell_i && !after_glitch && high_for_q >= IdleWidth'(Tsyn);
     overflow     = !starts && measuring_q && edge_now && n_edges_q == 5'(MaxEdges);
@@ -149,7 +153,7 @@ module autobaud_channel #(
     // The idle line, with the rate's glitches removed.
     if (edge_now) begin
       pend_valid_d = !cancels;
-      pend_age_d   = AgeWidth'(1);
+      pend_age_d   = PendWidth'(1);
       if (rose_i && !cancels) begin
         high_for_d   = IdleWidth'(1);
         before_for_d = high_next;
@@ -208,7 +212,7 @@ module autobaud_channel #(
   assign reject_o      = decides && !ok && !heard_any_i;
   assign reject_code_o = code;
   assign byte_o        = data;
-  assign start_age_o   = since_t0_q - TimeWidth'(offset);
+  assign start_age_o   = StartAgeWidth'(since_t0_q - TimeWidth'(offset));
   assign measuring_o   = measuring_q;
 
   // The readers' other outputs are for their own check (rtl-check's char_reader cases).

@@ -378,7 +378,7 @@ mod tests {
     }
 
     proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig { cases: 64, ..Default::default() })]
+        #![proptest_config(prop_cases::config(64))]
 
         /// Any bytes before a master's requests cost at most one of them, and never panic.
         #[test]

@@ -16,11 +16,14 @@
 //! - `clippy-firmware`: clippy, warnings denied, on the firmware of every board in the table.
 //! - `rtl-check [--quick]`: the gateware's blocks against the transceiver model, clock for
 //!   clock, under Verilator.
+//! - `gateware`: the blocks synthesised for the production board's FPGA and the search placed
+//!   and routed on it (yosys and nextpnr-ice40 from PyPI).
 
 mod baud_sweep;
 mod dist;
 mod dp_cycle;
 mod flash;
+mod gateware;
 mod gsd;
 mod phy_bench;
 mod pty_check;
@@ -42,7 +45,7 @@ fn try_main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some((task, rest)) = args.split_first() else {
         bail!(
-            "usage: cargo xtask <qemu-test|qemu-run|flash|dist|clippy-firmware|baud-sweep|phy-bench|dp-cycle|gsd|rtl-check> [options]"
+            "usage: cargo xtask <qemu-test|qemu-run|flash|dist|clippy-firmware|baud-sweep|phy-bench|dp-cycle|gsd|rtl-check|gateware> [options]"
         );
     };
     match task.as_str() {
@@ -56,9 +59,10 @@ fn try_main() -> Result<()> {
         "dist" => dist::run(rest),
         "clippy-firmware" => qemu_test::clippy_firmware(rest),
         "rtl-check" => rtl_check::run(rest),
+        "gateware" => gateware::run(rest),
         other => bail!(
             "unknown task `{other}`: qemu-test, qemu-run, flash, dist, clippy-firmware, \
-             baud-sweep, phy-bench, dp-cycle, gsd or rtl-check"
+             baud-sweep, phy-bench, dp-cycle, gsd, rtl-check or gateware"
         ),
     }
 }

@@ -626,7 +626,7 @@ pub(crate) fn ensure_target() -> Result<()> {
     Ok(())
 }
 
-fn find_in_path(program: &str) -> Option<PathBuf> {
+pub(crate) fn find_in_path(program: &str) -> Option<PathBuf> {
     std::env::var_os("PATH").and_then(|paths| {
         std::env::split_paths(&paths)
             .map(|dir| dir.join(program))
@@ -644,14 +644,21 @@ pub(crate) fn ensure_debian_tool(program: &str, package: &str) -> Result<PathBuf
     if let Some(path) = find_in_path(program) {
         return Ok(path);
     }
+    apt_get_install(package, program)?;
+    find_in_path(program).ok_or_else(|| anyhow!("{program} still not on PATH after apt-get"))
+}
+
+/// Debian's `package` (for `what`) installed through apt-get when run as root; else an error
+/// that says which command to run.
+pub(crate) fn apt_get_install(package: &str, what: &str) -> Result<()> {
     let uid = Command::new("id")
         .arg("-u")
         .output()
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
     if uid.as_deref().ok() != Some("0") {
-        bail!("{program} is not installed; install it with `sudo apt-get install -y {package}`");
+        bail!("{what} is not installed; install it with `sudo apt-get install -y {package}`");
     }
-    println!("installing {program}: apt-get install -y --no-install-recommends {package}");
+    println!("installing {what}: apt-get install -y --no-install-recommends {package}");
     let apt = |args: &[&str]| -> Result<()> {
         let status = Command::new("apt-get")
             .args(args)
@@ -664,8 +671,7 @@ pub(crate) fn ensure_debian_tool(program: &str, package: &str) -> Result<PathBuf
         Ok(())
     };
     apt(&["update", "-q"])?;
-    apt(&["install", "-y", "-q", "--no-install-recommends", package])?;
-    find_in_path(program).ok_or_else(|| anyhow!("{program} still not on PATH after apt-get"))
+    apt(&["install", "-y", "-q", "--no-install-recommends", package])
 }
 
 /// Builds an image (release) in a target directory of its own name, with the version from

@@ -77,6 +77,34 @@ pub enum Runs {
     Probe,
 }
 
+/// The transceiver's FPGA on the production board: what `cargo xtask gateware` builds for and
+/// the sample clock every figure of the transceiver model counts in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fpga {
+    /// The part as its maker names it.
+    pub part: &'static str,
+    /// nextpnr-ice40's device and package options (`--hx8k --package ct256`).
+    pub device: &'static str,
+    pub package: &'static str,
+    /// Logic cells (a LUT4, a carry and a flip-flop each) and 4-kbit block RAMs.
+    pub logic_cells: u32,
+    pub block_rams: u32,
+    /// The transceiver's sample clock: one tick of the model (crates/dp-phy).
+    pub sample_clock_hz: u32,
+}
+
+/// An iCE40 HX8K in its 256-ball BGA: the largest iCE40, since the UP5K (5,280 cells) cannot
+/// hold the baud-rate search (5,660 cells with PyPI's yosys and nextpnr, README "Gateware").
+/// 48 MHz: every rate's bit is a whole number of clocks but 45.45 kbit/s's, and 12 Mbit/s has 4.
+pub const TRANSCEIVER_FPGA: Fpga = Fpga {
+    part: "iCE40HX8K-CT256",
+    device: "hx8k",
+    package: "ct256",
+    logic_cells: 7680,
+    block_rams: 32,
+    sample_clock_hz: 48_000_000,
+};
+
 /// One board.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Board {

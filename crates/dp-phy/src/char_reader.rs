@@ -332,7 +332,7 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(512))]
+        #![proptest_config(prop_cases::config(512))]
 
         /// At every clock, the reader reads what the replay reads from the same edges.
         #[test]

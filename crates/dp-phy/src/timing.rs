@@ -8,8 +8,9 @@
 use crate::Tick;
 use dp_consts::Baud;
 
-/// The sample clock of the adapter's transceiver unless configured otherwise.
-pub const DEFAULT_CLOCK_HZ: u32 = 48_000_000;
+/// The sample clock of the adapter's transceiver unless configured otherwise: the production
+/// board's FPGA's (crates/board).
+pub const DEFAULT_CLOCK_HZ: u32 = board::TRANSCEIVER_FPGA.sample_clock_hz;
 
 const PPM_SCALE: u64 = 1_000_000;
 

@@ -649,7 +649,7 @@ fn a_traced_run_writes_a_vcd_waveform() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #![proptest_config(prop_cases::config(48))]
 
     #[test]
     fn any_rate_offset_phase_and_payload_decodes_exactly(
@@ -749,10 +749,12 @@ proptest! {
 
     #[test]
     fn fast_equals_strict_across_a_rate_change(
-        seed in any::<u64>(), from in 0usize..10, to in 0usize..10, ppm in -5000i32..=5000,
+        seed in any::<u64>(), from in 0usize..10, step in 1usize..10, ppm in -5000i32..=5000,
         noisy in any::<bool>(),
     ) {
-        prop_assume!(from != to);
+        // Another rate by construction: a rejected draw (`prop_assume!`) counts against
+        // proptest's 1,024 global rejects, which a long campaign's tenth of its cases exceeds.
+        let to = (from + step) % 10;
         strict_equals_fast_across_a_change(seed, Baud::ALL[from], Baud::ALL[to], ppm, noisy);
     }
 
@@ -819,3 +821,10 @@ fn pinned_waveforms() {
 
 const PINNED_LOCK: &str = "74e774a6df6465630978916378bc5035ee3c3f696e4c07cedf61e0916f773478";
 const PINNED_12M: &str = "886d65b9cf9acb4823a8456cc2e8ed6c793d12b11860d7eb6f5804a677dbe99e";
+
+/// Found by `PROPTEST_CASES=20000` (issue 31): fast mode counted one search rejection fewer
+/// than strict mode at 9.6k with glitches.
+#[test]
+fn fast_equals_strict_9k6_glitches_found_by_a_long_campaign() {
+    strict_equals_fast(18393667802148869572, Baud::B9600, -3084, true);
+}

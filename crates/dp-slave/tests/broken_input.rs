@@ -98,7 +98,7 @@ fn any_request(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(3000))]
+    #![proptest_config(prop_cases::config(3000))]
 
     #[test]
     fn malformed_bytes_change_nothing(bytes in prop::collection::vec(any::<u8>(), 0..64), fresh in any::<bool>()) {

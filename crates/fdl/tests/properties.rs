@@ -12,7 +12,7 @@ fn sap() -> impl Strategy<Value = Option<Sap>> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(2000))]
+    #![proptest_config(prop_cases::config(2000))]
 
     #[test]
     fn parse_never_panics(bytes in prop::collection::vec(any::<u8>(), 0..300)) {

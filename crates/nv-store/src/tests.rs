@@ -87,7 +87,7 @@ fn garbage_reads_as_nothing_and_is_overwritten() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(prop_cases::config(64))]
 
     /// Issue 30 item 2: a write cut by a power loss at any byte it programs or erases leaves
     /// the value before it or the new one, and the storage goes on working. `before`: writes

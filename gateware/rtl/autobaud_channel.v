@@ -9,10 +9,14 @@
 // decides at the middle of the last candidate's stop bit (at its end with the line low there):
 // a start delimiter (detect_o), or why not (reject_o), both for this clock only.
 //
-// The model keeps ticks; this keeps the clocks since them, which is what it compares: the
-// idle line's high_since and high_before as clocks since (saturating, IdleWidth bits, past any
-// Tsyn), the pending edge and the line's last edge as their age (AgeWidth bits, past any
-// glitch), the measurement's start as since_t0_q and its decision as the clocks left to it.
+// The model keeps ticks; this keeps what it compares them for, as clocks left (counting down to
+// 0 and holding there, so a comparison is a zero test): the idle line's high_since and
+// high_before as the clocks they still lack of Tsyn (high_left_q, before_left_q), the pending
+// edge as the clocks a next edge would still cancel it within (cancel_left_q: 0 for none), the
+// decision as the clocks to it; the measurement's start as the clocks since it (since_t0_q,
+// wide enough for a start bit and a character, free-running between measurements), and the
+// line's last edge as its age (the search's, shared). The detection's start is since_t0_o less
+// offset_o, worked out once in autobaud.v for the channel that goes out.
 // What the decision reads is the reader's registers with this clock's line lasting (the
 // model clocks the reader through this clock first: the same bits, and this clock's edge
 // counts in the glitches, char_reader's glitches_next_o).
@@ -42,7 +46,8 @@ module autobaud_channel #(
   // The search's: the line's last edge's age (past the slowest rate's glitch), the start age
   // it puts out.
   parameter int AgeWidth         = 12,
-  parameter int StartAgeWidth    = 16
+  parameter int StartAgeWidth    = 16,
+  parameter int AltOutWidth      = 13
 ) (
   input  wire                 clk_i,
   input  wire                 rst_ni,
@@ -60,16 +65,16 @@ module autobaud_channel #(
   output wire [1:0]           reject_code_o,
   output wire [7:0]           byte_o,
   // Clocks since the detected character's start edge.
-  output wire [StartAgeWidth-1:0] start_age_o,
+  output wire [StartAgeWidth-1:0] since_t0_o,
+  output wire [AltOutWidth-1:0]   offset_o,
   output wire                 measuring_o
 );
   localparam int MaxEdges = 16;
   localparam int BalanceWidth = PhaseWidth + 1;
 
-  logic                 pend_valid_q, pend_valid_d;
-  logic [PendWidth-1:0] pend_age_q, pend_age_d;
-  logic [IdleWidth-1:0] high_for_q, high_for_d;
-  logic [IdleWidth-1:0] before_for_q, before_for_d;
+  logic [PendWidth-1:0] cancel_left_q, cancel_left_d;
+  logic [IdleWidth-1:0] high_left_q, high_left_d;
+  logic [IdleWidth-1:0] before_left_q, before_left_d;
   logic                 measuring_q, measuring_d;
   logic [TimeWidth-1:0] since_t0_q, since_t0_d;
   logic [TimeWidth-1:0] decide_in_q, decide_in_d;
@@ -80,6 +85,7 @@ module autobaud_channel #(
   logic                 edge_now, cancels, after_glitch, starts, second, overflow, due;
   logic                 start1;
   logic [IdleWidth-1:0] high_next, before_next;
+  logic                 idle_long;
 
   // The two readers: from the start edge, and from the second candidate start.
   logic [3:0]              bit0, bit1;
@@ -88,8 +94,8 @@ module autobaud_channel #(
   logic [1:0]              glitches0, glitches1;
   logic [BalanceWidth-1:0] lead0, lead1, lag0, lag1;
 
-  function automatic logic [IdleWidth-1:0] idle_inc(input logic [IdleWidth-1:0] v);
-    idle_inc = (&v) ? v : v + 1'b1;
+  function automatic logic [IdleWidth-1:0] idle_dec(input logic [IdleWidth-1:0] v);
+    idle_dec = v == '0 ? v : v - 1'b1;
   endfunction
 
   // A reading as dp_phy::autobaud::delimiter_read judges it: {ok, code, byte}. At a decision
@@ -122,22 +128,22 @@ module autobaud_channel #(
   logic [AltWidth-1:0]  offset;
 
   always_comb begin
-    pend_valid_d = pend_valid_q;
-    pend_age_d   = &pend_age_q ? pend_age_q : pend_age_q + 1'b1;
-    high_next    = idle_inc(high_for_q);
-    before_next  = idle_inc(before_for_q);
-    high_for_d   = high_next;
-    before_for_d = before_next;
+    cancel_left_d = cancel_left_q == '0 ? cancel_left_q : cancel_left_q - 1'b1;
+    high_next     = idle_dec(high_left_q);
+    before_next   = idle_dec(before_left_q);
+    high_left_d   = high_next;
+    before_left_d = before_next;
     measuring_d  = measuring_q;
-    since_t0_d   = &since_t0_q ? since_t0_q : since_t0_q + 1'b1;
+    since_t0_d   = since_t0_q + 1'b1;
     decide_in_d  = decide_in_q - 1'b1;
     n_edges_d    = n_edges_q;
     alt_d        = alt_q;
     deferred_d   = deferred_q;
     edge_now     = fell_i || rose_i;
-    cancels      = pend_valid_q && pend_age_q <= PendWidth'(Glitch);
+    cancels      = cancel_left_q != '0;
+    idle_long    = high_left_q == '0;
     after_glitch = edge_age_i <= AgeWidth'(Glitch);
-    starts       = fell_i && !after_glitch && high_for_q >= IdleWidth'(Tsyn);
+    starts       = fell_i && !after_glitch && idle_long;
     overflow     = !starts && measuring_q && edge_now && n_edges_q == 5'(MaxEdges);
     second       = !starts && measuring_q && fell_i && !overflow && after_glitch
                    && since_t0_q < TimeWidth'(StartBitClocks);
@@ -152,14 +158,13 @@ module autobaud_channel #(
 
     // The idle line, with the rate's glitches removed.
     if (edge_now) begin
-      pend_valid_d = !cancels;
-      pend_age_d   = PendWidth'(1);
+      cancel_left_d = cancels ? '0 : PendWidth'(Glitch);
       if (rose_i && !cancels) begin
-        high_for_d   = IdleWidth'(1);
-        before_for_d = high_next;
+        high_left_d   = IdleWidth'(Tsyn - 1);
+        before_left_d = high_next;
       end else if (fell_i && cancels) begin
-        high_for_d   = before_next;
-        before_for_d = before_next;
+        high_left_d   = before_next;
+        before_left_d = before_next;
       end
     end
 
@@ -212,7 +217,8 @@ module autobaud_channel #(
   assign reject_o      = decides && !ok && !heard_any_i;
   assign reject_code_o = code;
   assign byte_o        = data;
-  assign start_age_o   = StartAgeWidth'(since_t0_q - TimeWidth'(offset));
+  assign since_t0_o    = StartAgeWidth'(since_t0_q);
+  assign offset_o      = AltOutWidth'(offset);
   assign measuring_o   = measuring_q;
 
   // The readers' other outputs are for their own check (rtl-check's char_reader cases).
@@ -270,10 +276,10 @@ module autobaud_channel #(
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
-      pend_valid_q <= 1'b0;
-      pend_age_q   <= '0;
-      high_for_q   <= '0;
-      before_for_q <= '0;
+      // Reset is tick 0, with the line high since then: TSYN is all to come.
+      cancel_left_q <= '0;
+      high_left_q   <= IdleWidth'(Tsyn);
+      before_left_q <= IdleWidth'(Tsyn);
       measuring_q  <= 1'b0;
       since_t0_q   <= '0;
       decide_in_q  <= '0;
@@ -281,10 +287,9 @@ module autobaud_channel #(
       alt_q        <= '0;
       deferred_q   <= 1'b0;
     end else begin
-      pend_valid_q <= pend_valid_d;
-      pend_age_q   <= pend_age_d;
-      high_for_q   <= high_for_d;
-      before_for_q <= before_for_d;
+      cancel_left_q <= cancel_left_d;
+      high_left_q   <= high_left_d;
+      before_left_q <= before_left_d;
       measuring_q  <= measuring_d;
       since_t0_q   <= since_t0_d;
       decide_in_q  <= decide_in_d;

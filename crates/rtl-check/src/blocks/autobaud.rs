@@ -51,13 +51,13 @@ pub fn channels_svh() -> String {
              .HalfLessInc({}), .TwoInc({}), .ModuloLessInc({}), .ModuloLessTwoInc({}),\n    \
              .Glitch({}), .Tsyn({}), .StopMiddle({}), .StopEnd({}), .StartBitClocks({}),\n    \
              .IdleWidth({}), .PendWidth({}), .TimeWidth({}), .AltWidth({}),\n    \
-             .AgeWidth(AgeWidth), .StartAgeWidth(TimeWidth)\n  \
+             .AgeWidth(AgeWidth), .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)\n  \
              ) u_channel_{r} (\n    \
              .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),\n    \
              .heard_i(heard[{r}]), .heard_any_i(heard_valid_i), .detect_o(detect[{r}]),\n    \
              .reject_o(reject[{r}]), .reject_code_o(reject_code[{r} * 2 +: 2]),\n    \
-             .byte_o(bytes[{r} * 8 +: 8]), .start_age_o(start_age[{r} * TimeWidth +: TimeWidth]),\n    \
-             .measuring_o(measuring_o[{r}])\n  );\n",
+             .byte_o(bytes[{r} * 8 +: 8]), .since_t0_o(since_t0[{r} * TimeWidth +: TimeWidth]),\n    \
+             .offset_o(offset[{r} * AltWidth +: AltWidth]), .measuring_o(measuring_o[{r}])\n  );\n",
             c.inc,
             c.modulo,
             c.quarter,

@@ -124,14 +124,14 @@ fn cases(quick: bool) -> Vec<Case> {
     out
 }
 
-fn run_case(c: &Case) -> Outcome {
+fn run_case(c: &Case, cfg: &Config) -> Outcome {
     let mut rng = ChaCha8Rng::seed_from_u64(c.seed);
     let target = BitTiming::new(DEFAULT_CLOCK_HZ, c.baud, c.ppm);
     let first_timing = match c.scenario {
         Scenario::PowerUp => target,
         Scenario::RateChange { from } => BitTiming::new(DEFAULT_CLOCK_HZ, from, -c.ppm),
     };
-    let mut tb = Testbench::new(Config::default(), first_timing, FaultInjector::none());
+    let mut tb = Testbench::new(*cfg, first_timing, FaultInjector::none());
     tb.run_until(c.phase, true);
     if let Scenario::RateChange { .. } = c.scenario {
         tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 4));
@@ -408,7 +408,7 @@ impl Summary {
 }
 
 pub fn run(args: &[String]) -> Result<()> {
-    check_flags(args, &["--quick"], &["--shard", "--merge"])?;
+    check_flags(args, &["--quick", "--oversampled"], &["--shard", "--merge"])?;
     if let Some(dir) = flag_value(args, "--merge")? {
         if args.len() > 2 {
             bail!("--merge takes no other flag");
@@ -418,6 +418,17 @@ pub fn run(args: &[String]) -> Result<()> {
         return report(&rows, dir, "sweep");
     }
     let quick = args.iter().any(|a| a == "--quick");
+    // The search sampling the slower rates 16-20 times a bit (README "Gateware"), to see what
+    // it costs; its files are apart (`sweep-oversampled*`).
+    let oversampled = args.iter().any(|a| a == "--oversampled");
+    let cfg = Config {
+        search_periods: if oversampled {
+            dp_phy::autobaud::OVERSAMPLED
+        } else {
+            dp_phy::autobaud::EVERY_CLOCK
+        },
+        ..Config::default()
+    };
     let (shard, shards) = match flag_value(args, "--shard")? {
         None => (1, 1),
         Some(s) => {
@@ -443,17 +454,22 @@ pub fn run(args: &[String]) -> Result<()> {
         if quick { "quick, " } else { "" }
     );
 
-    let rows = run_cases(&mine);
-    let stem = if shards == 1 {
-        "sweep".to_string()
+    let rows = run_cases(&mine, &cfg);
+    let base = if oversampled {
+        "sweep-oversampled"
     } else {
-        format!("sweep-{shard}-of-{shards}")
+        "sweep"
+    };
+    let stem = if shards == 1 {
+        base.to_string()
+    } else {
+        format!("{base}-{shard}-of-{shards}")
     };
     report(&rows, &project_root().join("target/baud-sweep"), &stem)
 }
 
 /// Run `mine` on up to four threads; the rows in the order of `mine`.
-fn run_cases(mine: &[Case]) -> Vec<Row> {
+fn run_cases(mine: &[Case], cfg: &Config) -> Vec<Row> {
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(4);
@@ -466,7 +482,7 @@ fn run_cases(mine: &[Case]) -> Vec<Row> {
                 s.spawn(move || {
                     let mut out = Vec::new();
                     for (k, c) in mine.iter().enumerate().filter(|(k, _)| k % workers == w) {
-                        out.push((k, run_case(c)));
+                        out.push((k, run_case(c, cfg)));
                         let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                         if n.is_multiple_of(20) || n == mine.len() {
                             println!("  {n}/{} cases", mine.len());
@@ -753,7 +769,7 @@ mod tests {
     #[test]
     fn two_quick_shards_merged_equal_the_unsharded_quick_run() {
         let all = cases(true);
-        let whole = run_cases(&all);
+        let whole = run_cases(&all, &Config::default());
         let dir = project_root().join("target/tmp/sweep-merge");
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
@@ -765,7 +781,7 @@ mod tests {
                 .map(|(_, c)| *c)
                 .collect();
             let path = dir.join(format!("sweep-{shard}-of-2.csv"));
-            write_csv(&run_cases(&mine), &path).unwrap();
+            write_csv(&run_cases(&mine, &Config::default()), &path).unwrap();
         }
         let merged = merge(&dir).unwrap();
         let lines = |rows: &[Row]| rows.iter().map(Row::csv).collect::<Vec<_>>();

@@ -36,6 +36,12 @@
 //! ([`CharReader::advance`]), so fast mode stops there, and passes over decisions that cannot
 //! show while a rate is known ([`AutoBaud::quiet_for`], [`AutoBaud::retire`]).
 //!
+//! A channel may sample the line every few clocks instead of every clock
+//! ([`AutoBaud::sampled`], [`OVERSAMPLED`]: 16 to 20 samples a bit, as a UART oversamples): it
+//! then sees a change of the line at its next sample, or not at all if the line is back before
+//! it, and counts its figures in samples, which makes its registers narrow in the FPGA. Fast
+//! mode stops at each such sample. [`AutoBaud::new`] samples every clock, as the RTL does.
+//!
 //! A detection is only a candidate: the lock is confirmed by the transceiver when the whole
 //! telegram arrives without error. Anything that fails a check is dropped and that rate's
 //! channel listens again.
@@ -122,8 +128,12 @@ pub struct AutoBaudQ {
     pub pending: [Tick; RATES],
     pub high_since: [Tick; RATES],
     pub high_before: [Tick; RATES],
-    /// The line's last edge, glitch or not.
-    pub last_edge: Tick,
+    /// The line's last edge, glitch or not, as each rate sampled it.
+    pub last_edge: [Tick; RATES],
+    /// The level each rate last sampled, and the sample tick at which it takes the line's
+    /// change (`Tick::MAX`: none to take). A rate that samples every clock takes it at once.
+    pub held: [bool; RATES],
+    pub sample_at: [Tick; RATES],
     pub channels: [ChannelQ; RATES],
     /// Some channel is measuring.
     pub measuring: bool,
@@ -135,7 +145,9 @@ pub const AUTOBAUD_RESET: AutoBaudQ = AutoBaudQ {
     pending: [Tick::MAX; RATES],
     high_since: [0; RATES],
     high_before: [0; RATES],
-    last_edge: 0,
+    last_edge: [0; RATES],
+    held: [true; RATES],
+    sample_at: [Tick::MAX; RATES],
     channels: [CHANNEL_RESET; RATES],
     measuring: false,
     deadline: Tick::MAX,
@@ -147,7 +159,7 @@ impl AutoBaudQ {
         AutoBaudQ {
             high_since: [now; RATES],
             high_before: [now; RATES],
-            last_edge: now,
+            last_edge: [now; RATES],
             ..AUTOBAUD_RESET
         }
     }
@@ -156,13 +168,25 @@ impl AutoBaudQ {
 /// Per-rate constants, computed once from the sample clock.
 #[derive(Clone, Copy, Debug)]
 struct RateWindow {
-    /// Bit period: `modulo / inc` clocks, exact.
+    /// Bit period: `modulo / inc` of the channel's samples, exact.
     inc: u64,
     modulo: u64,
-    /// Relative ticks at which the stop bit's middle and its end are reached.
+    /// Clocks from one of the channel's samples of the line to the next (1: every clock).
+    period: u64,
+    /// Relative ticks at which the stop bit's middle and its end are reached (whole samples).
     stop_middle: u64,
     stop_end: u64,
 }
+
+/// Clocks between a channel's samples of the line: every clock for each rate
+/// ([`AutoBaud::new`]).
+pub const EVERY_CLOCK: [u64; RATES] = [1; RATES];
+
+/// Clocks between samples that give each rate up to 1.5 Mbit/s 16 to 20 samples a bit at
+/// 48 MHz (9.6k 20, 19.2k 20, 45.45k 16.0, 93.75k-1.5M 16), and the three fastest every
+/// clock (16, 8 and 4 a bit): the search as an FPGA would oversample it, narrow registers
+/// in place of the clock-exact ones ([`AutoBaud::sampled`]; README "Gateware").
+pub const OVERSAMPLED: [u64; RATES] = [250, 125, 66, 32, 16, 6, 2, 1, 1, 1];
 
 /// One channel's fixed figures, as the RTL takes them as parameters
 /// (gateware/rtl/autobaud_channels.svh).
@@ -173,8 +197,11 @@ pub struct ChannelFigures {
     pub tsyn: Tick,
     pub stop_middle: Tick,
     pub stop_end: Tick,
-    /// A fall fewer clocks than this after the start edge is inside the start bit.
+    /// A fall fewer samples (clocks, sampling every clock) than this after the start edge is
+    /// inside the start bit.
     pub start_bit_clocks: Tick,
+    /// Clocks between the channel's samples of the line.
+    pub period: Tick,
 }
 
 /// The search block's fixed configuration.
@@ -189,21 +216,49 @@ pub struct AutoBaud {
     tsyn: [Tick; RATES],
     /// Each rate's character reader.
     readers: [CharReader; RATES],
+    /// Every channel samples every clock: no change waits for a sample.
+    every_clock: bool,
 }
 
 impl AutoBaud {
+    /// The search with every channel sampling the line at every clock.
     pub fn new(clock_hz: u32) -> Self {
-        let timings = Baud::ALL.map(|b| crate::BitTiming::new(clock_hz, b, 0));
-        AutoBaud {
-            windows: timings.map(|t| RateWindow {
-                inc: t.inc,
+        Self::sampled(clock_hz, EVERY_CLOCK)
+    }
+
+    /// The search with the channel of rate `r` sampling the line every `periods[r]` clocks
+    /// (at the ticks that are multiples of it): it sees a change at its next sample, or not
+    /// at all if the line is back before it, and its figures (glitch, TSYN, the stop bit's
+    /// middle and end) are whole samples.
+    pub fn sampled(clock_hz: u32, periods: [u64; RATES]) -> Self {
+        let timings: [crate::BitTiming; RATES] = core::array::from_fn(|r| {
+            let t = crate::BitTiming::new(clock_hz, Baud::ALL[r], 0);
+            // One sample: `period` clocks of phase.
+            crate::BitTiming {
+                inc: t.inc * periods[r],
                 modulo: t.modulo,
-                stop_middle: t.clocks_for(21, 2),
-                stop_end: t.clocks_for(11, 1),
+            }
+        });
+        let p = |r: usize| periods[r].max(1);
+        AutoBaud {
+            windows: core::array::from_fn(|r| {
+                let t = timings[r];
+                RateWindow {
+                    inc: t.inc,
+                    modulo: t.modulo,
+                    period: p(r),
+                    stop_middle: p(r) * t.clocks_for(21, 2),
+                    stop_end: p(r) * t.clocks_for(11, 1),
+                }
             }),
-            glitch: timings.map(|t| crate::filter::glitch_len_for(t.clocks_per_bit()).into()),
-            tsyn: timings.map(|t| t.clocks_for(2 * TSYN_BITS as u64 - 1, 2)),
+            glitch: core::array::from_fn(|r| {
+                p(r) * Tick::from(crate::filter::glitch_len_for(timings[r].clocks_per_bit()))
+            }),
+            tsyn: core::array::from_fn(|r| {
+                p(r) * timings[r].clocks_for(2 * TSYN_BITS as u64 - 1, 2)
+            }),
             readers: timings.map(CharReader::new),
+            every_clock: periods.iter().all(|&p| p <= 1),
         }
     }
 
@@ -217,8 +272,9 @@ impl AutoBaud {
             tsyn: self.tsyn[r],
             stop_middle: w.stop_middle,
             stop_end: w.stop_end,
-            // `at * inc < modulo` for a whole `at`.
+            // `at * inc < modulo` for a whole `at` of samples.
             start_bit_clocks: w.modulo.div_ceil(w.inc),
+            period: w.period,
         }
     }
 
@@ -246,10 +302,25 @@ impl AutoBaud {
             return None;
         }
         if edge {
-            self.pass_edge(now, line.rose, q);
+            self.pass_edge(now, line.level, q);
         }
         if now < q.deadline {
             return None;
+        }
+        // The channels that sample the line's last change now (those sampling every clock
+        // took it with the edge).
+        let mut sampled = false;
+        for r in (0..RATES).filter(|_| !self.every_clock) {
+            if q.sample_at[r] == now {
+                self.sample_edge(r, now, line.level, q);
+                sampled = true;
+            }
+        }
+        if sampled {
+            self.update_deadline(q);
+            if now < q.deadline {
+                return None;
+            }
         }
         // Decisions due, the fastest rate first: a detection goes before any rejection.
         let mut out = None;
@@ -288,91 +359,149 @@ impl AutoBaud {
     /// The measurements keep the edges as they are (a decision weighs each bit whole, which a
     /// glitch of the rate cannot turn); the idle line is followed with each rate's glitches
     /// removed: an edge within the glitch length of the last one kept cancels both.
-    fn pass_edge(&self, now: Tick, rose: bool, q: &mut AutoBaudQ) {
+    fn pass_edge(&self, now: Tick, level: bool, q: &mut AutoBaudQ) {
         let mut changed = false;
-        // A rise only goes on measurements under way.
-        if !rose || q.measuring {
-            for r in 0..RATES {
-                let c = &mut q.channels[r];
-                // A fall after a high longer than a glitch, after TSYN of idle line, starts a
-                // measurement: one under way then started on a glitch (or is no delimiter), and is
-                // replaced. After a shorter high, inside the start bit, the fall is a second
-                // candidate start: the high was a glitch in the start bit, or the first low was
-                // one before it.
-                let after_glitch = now - q.last_edge.min(now) <= self.glitch[r];
-                if !rose && !after_glitch && now - q.high_since[r].min(now) >= self.tsyn[r] {
-                    changed = true;
-                    let mut from_start = CHAR_READER_RESET;
-                    self.readers[r].start(&mut from_start);
-                    *c = ChannelQ {
-                        measuring: true,
-                        t0: now,
-                        readers: [from_start, CHAR_READER_RESET],
-                        read_until: now,
-                        decide_at: now + self.windows[r].stop_middle,
-                        ..CHANNEL_RESET
-                    };
-                } else if c.measuring {
-                    if c.n_edges == MAX_EDGES {
-                        // More edges than a character and its glitches have: not one of this rate.
-                        changed = true;
-                        c.measuring = false;
-                    } else {
-                        c.n_edges += 1;
-                        // The clocks before the edge at the level before it, then its own.
-                        self.read_to(r, c, now - 1, !rose);
-                        let reader = &self.readers[r];
-                        reader.clock(&mut c.readers[0], rose, true);
-                        c.read_until = now;
-                        let at = (now - c.t0).min(u32::MAX as u64) as u32;
-                        let w = &self.windows[r];
-                        if !rose && after_glitch && u64::from(at) * w.inc < w.modulo {
-                            changed = true;
-                            c.alt = at;
-                            reader.start(&mut c.readers[1]);
-                            c.decide_at = now + w.stop_middle;
-                            c.deferred = false;
-                        } else if c.alt != 0 {
-                            reader.clock(&mut c.readers[1], rose, true);
-                        }
-                    }
+        if self.every_clock {
+            // Every channel takes the change now. A rise only goes on measurements under way;
+            // the idle line in a loop of its own, selects and no branches over the ten rates.
+            if !level || q.measuring {
+                for r in 0..RATES {
+                    changed |= self.measure_edge(r, now, level, q);
                 }
             }
+            for r in 0..RATES {
+                self.idle_edge(r, now, level, q);
+            }
+            if changed {
+                self.update_deadline(q);
+            }
+            return;
         }
-        // The idle line: selects, no branches, over the ten rates.
         for r in 0..RATES {
-            // `Tick::MAX`: no edge can cancel (not the wrapped difference, which near tick 0
-            // is small; the RTL keeps a flag).
-            let cancels = q.pending[r] != Tick::MAX && now - q.pending[r] <= self.glitch[r];
-            let (since, before) = (q.high_since[r], q.high_before[r]);
-            (q.high_since[r], q.high_before[r]) = match (rose, cancels) {
-                (true, false) => (now, since),
-                (false, true) => (before, before),
-                _ => (since, before),
+            if level == q.held[r] {
+                // Back at the level the channel holds before it sampled the change: a pulse
+                // between two of its samples, which it never sees.
+                changed |= q.sample_at[r] != Tick::MAX;
+                q.sample_at[r] = Tick::MAX;
+                continue;
+            }
+            let period = self.windows[r].period;
+            let at = if period == 1 {
+                now
+            } else {
+                now.next_multiple_of(period)
             };
-            q.pending[r] = if cancels { Tick::MAX } else { now };
+            if at == now {
+                changed |= self.sample_edge(r, now, level, q);
+            } else {
+                changed |= q.sample_at[r] != at;
+                q.sample_at[r] = at;
+            }
         }
-        q.last_edge = now;
         if changed {
             self.update_deadline(q);
         }
     }
 
+    /// Channel `r` samples the line changed at `now` (one of its sample ticks): it `rose`, or
+    /// fell. Returns whether its decision or its samples' deadline moved.
+    fn sample_edge(&self, r: usize, now: Tick, rose: bool, q: &mut AutoBaudQ) -> bool {
+        let pending = q.sample_at[r] != Tick::MAX;
+        q.held[r] = rose;
+        q.sample_at[r] = Tick::MAX;
+        let changed = self.measure_edge(r, now, rose, q);
+        self.idle_edge(r, now, rose, q);
+        changed || pending
+    }
+
+    /// Channel `r`'s measurement takes the line's change at `now`. Returns whether its decision
+    /// moved.
+    #[inline(always)]
+    fn measure_edge(&self, r: usize, now: Tick, rose: bool, q: &mut AutoBaudQ) -> bool {
+        let mut changed = false;
+        let w = &self.windows[r];
+        let c = &mut q.channels[r];
+        // A fall after a high longer than a glitch, after TSYN of idle line, starts a
+        // measurement: one under way then started on a glitch (or is no delimiter), and is
+        // replaced. After a shorter high, inside the start bit, the fall is a second candidate
+        // start: the high was a glitch in the start bit, or the first low was one before it.
+        let after_glitch = now - q.last_edge[r].min(now) <= self.glitch[r];
+        if !rose && !after_glitch && now - q.high_since[r].min(now) >= self.tsyn[r] {
+            changed = true;
+            let mut from_start = CHAR_READER_RESET;
+            self.readers[r].start(&mut from_start);
+            *c = ChannelQ {
+                measuring: true,
+                t0: now,
+                readers: [from_start, CHAR_READER_RESET],
+                read_until: now,
+                decide_at: now + w.stop_middle,
+                ..CHANNEL_RESET
+            };
+        } else if c.measuring {
+            if c.n_edges == MAX_EDGES {
+                // More edges than a character and its glitches have: not one of this rate.
+                changed = true;
+                c.measuring = false;
+            } else {
+                c.n_edges += 1;
+                // The samples before the edge at the level before it, then its own.
+                self.read_to(r, c, now - w.period, !rose);
+                let reader = &self.readers[r];
+                reader.clock(&mut c.readers[0], rose, true);
+                c.read_until = now;
+                let at = (now - c.t0).min(u32::MAX as u64) as u32;
+                if !rose && after_glitch && u64::from(at) / w.period * w.inc < w.modulo {
+                    changed = true;
+                    c.alt = at;
+                    reader.start(&mut c.readers[1]);
+                    c.decide_at = now + w.stop_middle;
+                    c.deferred = false;
+                } else if c.alt != 0 {
+                    reader.clock(&mut c.readers[1], rose, true);
+                }
+            }
+        }
+        changed
+    }
+
+    /// Channel `r`'s idle line, the rate's glitches removed, takes the line's change at `now`.
+    #[inline(always)]
+    fn idle_edge(&self, r: usize, now: Tick, rose: bool, q: &mut AutoBaudQ) {
+        // `Tick::MAX`: no edge can cancel (not the wrapped difference, which near tick 0 is
+        // small; the RTL keeps a flag).
+        let cancels = q.pending[r] != Tick::MAX && now - q.pending[r] <= self.glitch[r];
+        let (since, before) = (q.high_since[r], q.high_before[r]);
+        (q.high_since[r], q.high_before[r]) = match (rose, cancels) {
+            (true, false) => (now, since),
+            (false, true) => (before, before),
+            _ => (since, before),
+        };
+        q.pending[r] = if cancels { Tick::MAX } else { now };
+        q.last_edge[r] = now;
+    }
+
     fn update_deadline(&self, q: &mut AutoBaudQ) {
         let mut deadline = Tick::MAX;
+        let mut measuring = false;
         for c in &q.channels {
             if c.measuring {
                 deadline = deadline.min(c.decide_at);
+                measuring = true;
             }
         }
+        if !self.every_clock {
+            deadline = q.sample_at.iter().fold(deadline, |d, &at| d.min(at));
+        }
         q.deadline = deadline;
-        q.measuring = deadline != Tick::MAX;
+        q.measuring = measuring;
     }
 
     /// Channel `r`'s readers through tick `until`, the line at `level` since the last tick
     /// they took.
     fn read_to(&self, r: usize, c: &mut ChannelQ, until: Tick, level: bool) {
-        let n = until.saturating_sub(c.read_until);
+        // Both are sample ticks of the channel: the samples between them.
+        let n = until.saturating_sub(c.read_until) / self.windows[r].period;
         let reader = &self.readers[r];
         reader.advance(&mut c.readers[0], level, n);
         if c.alt != 0 {
@@ -430,7 +559,7 @@ impl AutoBaud {
     /// channels start on most of its falls, and every telegram's delimiter is measured at its
     /// own rate too; fast mode would stop on each of their decisions.
     pub fn quiet_for(&self, now: Tick, level: bool, heard: Option<Baud>, q: &AutoBaudQ) -> Tick {
-        if !q.measuring {
+        if q.deadline == Tick::MAX {
             return Tick::MAX;
         }
         let mut deadline = Tick::MAX;
@@ -439,13 +568,18 @@ impl AutoBaud {
                 deadline = deadline.min(c.decide_at);
             }
         }
+        if !self.every_clock {
+            // A channel's sample of the line's change is always ticked: it may start a
+            // measurement.
+            deadline = q.sample_at.iter().fold(deadline, |d, &at| d.min(at));
+        }
         deadline.saturating_sub(now + 1)
     }
 
     /// Ends the measurements whose decision fell due before `now` unseen ([`AutoBaud::quiet_for`]
     /// with the line at `level`), as ticking would have.
     pub fn retire(&self, now: Tick, level: bool, heard: Option<Baud>, q: &mut AutoBaudQ) {
-        if now <= q.deadline {
+        if now <= q.deadline || !q.measuring {
             return;
         }
         for (r, c) in q.channels.iter_mut().enumerate() {

@@ -14,11 +14,19 @@ use rand_chacha::ChaCha8Rng;
 const CLOCK: u32 = DEFAULT_CLOCK_HZ;
 
 fn bench(baud: Baud, ppm: i32) -> Testbench {
-    Testbench::new(
-        Config::default(),
-        BitTiming::new(CLOCK, baud, ppm),
-        FaultInjector::none(),
-    )
+    bench_with(Config::default(), baud, ppm)
+}
+
+fn bench_with(cfg: Config, baud: Baud, ppm: i32) -> Testbench {
+    Testbench::new(cfg, BitTiming::new(CLOCK, baud, ppm), FaultInjector::none())
+}
+
+/// The transceiver with the search sampling the slower rates 16-20 times a bit.
+fn oversampled() -> Config {
+    Config {
+        search_periods: dp_phy::autobaud::OVERSAMPLED,
+        ..Config::default()
+    }
 }
 
 /// Run `replay` on a traced bench and leave its waveform in the test's temporary directory.
@@ -541,9 +549,13 @@ fn a_response_waits_min_tsdr_and_drives_only_while_sending() {
 
 /// Strict and fast runs of the same random stream give the same outputs.
 fn strict_equals_fast(seed: u64, baud: Baud, ppm: i32, noisy: bool) {
+    strict_equals_fast_with(Config::default(), seed, baud, ppm, noisy);
+}
+
+fn strict_equals_fast_with(cfg: Config, seed: u64, baud: Baud, ppm: i32, noisy: bool) {
     let build = || {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut tb = bench(baud, ppm);
+        let mut tb = bench_with(cfg, baud, ppm);
         let t = BitTiming::new(CLOCK, baud, 0);
         for i in 0..6 {
             let kind = Kind::ALL[rng.gen_range(0..5)];
@@ -715,6 +727,13 @@ proptest! {
     #[test]
     fn fast_equals_strict(seed in any::<u64>(), rate in 0usize..10, ppm in -5000i32..=5000, noisy in any::<bool>()) {
         strict_equals_fast(seed, Baud::ALL[rate], ppm, noisy);
+    }
+
+    /// The same with the search oversampling (each slower rate's channel sampling the line
+    /// every few clocks): its samples of the line's changes are ticked in fast mode too.
+    #[test]
+    fn fast_equals_strict_oversampled(seed in any::<u64>(), rate in 0usize..10, ppm in -5000i32..=5000, noisy in any::<bool>()) {
+        strict_equals_fast_with(oversampled(), seed, Baud::ALL[rate], ppm, noisy);
     }
 }
 

@@ -2,28 +2,27 @@
 // one autobaud_channel per rate at that rate's constant figures (autobaud_channels.svh,
 // written from the model by crates/rtl-check), and what the model's clock() returns.
 //
-// Each clock takes the synchronised line (level_i, and whether it fell or rose on this clock)
+// Each clock takes the synchronised line (level_i; each channel samples it and sees its changes)
 // and the rate the receiver is on (heard_valid_i, heard_i: an index into Baud::ALL, 9.6k
 // first). A decision falls due in a channel at the middle of its stop bit (or its end); of
 // those due on one clock, the fastest rate's detection goes out, else the fastest rate's
 // rejection (valid_o with detect_o low). With a rate heard, that rate's own decisions and
-// every rejection go nowhere, as in the model. The line's last edge is the one register the
-// channels share (its age, saturating past any rate's glitch).
+// every rejection go nowhere, as in the model.
 `default_nettype none
 
 module autobaud #(
-  // The line's last edge's age (past the slowest rate's glitch); the detections' start age
-  // and second-start offset (a 9.6k character and its start bit). Each channel's own registers
-  // have its rate's widths (autobaud_channels.svh).
-  parameter int AgeWidth  = 12,
+  // 1: the channels up to 1.5 Mbit/s sample the line every few clocks (AutoBaud::sampled with
+  // OVERSAMPLED); 0: every channel samples every clock (AutoBaud::new, the model's default).
+  parameter int Oversampled = 0,
+  // The detections' start age and second-start offset, in the detecting channel's samples
+  // (a 9.6k character and its start bit at every clock). Each channel's own registers have
+  // its rate's widths (autobaud_channels.svh).
   parameter int TimeWidth = 16,
   parameter int AltWidth  = 13
 ) (
   input  wire                 clk_i,
   input  wire                 rst_ni,
   input  wire                 level_i,
-  input  wire                 fell_i,
-  input  wire                 rose_i,
   input  wire                 heard_valid_i,
   input  wire [3:0]           heard_i,
   output logic                valid_o,
@@ -36,8 +35,6 @@ module autobaud #(
 );
   localparam int Rates = 10;
 
-  logic [AgeWidth-1:0] edge_age_q, edge_age_d;
-
   // Per channel, flat (yosys 0.23 takes no packed arrays of arrays): channel r's field at
   // [r * width +: width].
   logic [Rates-1:0]           heard, detect, reject;
@@ -47,8 +44,6 @@ module autobaud #(
   logic [Rates*AltWidth-1:0]  offset;
 
   always_comb begin
-    edge_age_d = fell_i || rose_i ? AgeWidth'(1)
-               : &edge_age_q ? edge_age_q : edge_age_q + 1'b1;
     for (int r = 0; r < Rates; r++) heard[r] = heard_valid_i && heard_i == 4'(r);
     // The fastest rate first; a detection before any rejection.
     valid_o       = 1'b0;
@@ -78,11 +73,6 @@ module autobaud #(
                       - TimeWidth'(offset[r*AltWidth +: AltWidth]);
       end
     end
-  end
-
-  always_ff @(posedge clk_i or negedge rst_ni) begin
-    if (!rst_ni) edge_age_q <= '0;
-    else edge_age_q <= edge_age_d;
   end
 
 `include "autobaud_channels.svh"

@@ -37,25 +37,22 @@ module autobaud_channel #(
   parameter int StopMiddle       = 52500,
   parameter int StopEnd          = 55000,
   parameter int StartBitClocks   = 5000,
+  // Clocks between the channel's samples of the line (AutoBaud::sampled); every figure above
+  // is in samples.
+  parameter int Period           = 1,
   // The rate's own widths: the idle line's clocks past Tsyn, the pending edge's age past
   // Glitch, a measurement's clocks (a start bit and a character), a start bit's clocks.
   parameter int IdleWidth        = 18,
   parameter int PendWidth        = 12,
   parameter int TimeWidth        = 16,
   parameter int AltWidth         = 13,
-  // The search's: the line's last edge's age (past the slowest rate's glitch), the start age
-  // it puts out.
-  parameter int AgeWidth         = 12,
+  // The search's: the start age and offset it puts out.
   parameter int StartAgeWidth    = 16,
   parameter int AltOutWidth      = 13
 ) (
   input  wire                 clk_i,
   input  wire                 rst_ni,
   input  wire                 level_i,
-  input  wire                 fell_i,
-  input  wire                 rose_i,
-  // Clocks since the line's last edge, glitch or not (AutoBaudQ::last_edge).
-  input  wire [AgeWidth-1:0]  edge_age_i,
   // The receiver is on this rate; on any rate.
   input  wire                 heard_i,
   input  wire                 heard_any_i,
@@ -72,6 +69,10 @@ module autobaud_channel #(
   localparam int MaxEdges = 16;
   localparam int BalanceWidth = PhaseWidth + 1;
 
+  localparam int PhaseBits = Period > 1 ? $clog2(Period) : 1;
+  logic [PhaseBits-1:0] phase_q, phase_d;
+  logic                 held_q, held_d;
+  logic [PendWidth-1:0] edge_left_q, edge_left_d;
   logic [PendWidth-1:0] cancel_left_q, cancel_left_d;
   logic [IdleWidth-1:0] high_left_q, high_left_d;
   logic [IdleWidth-1:0] before_left_q, before_left_d;
@@ -82,6 +83,7 @@ module autobaud_channel #(
   logic [AltWidth-1:0]  alt_q, alt_d;
   logic                 deferred_q, deferred_d;
 
+  logic                 sample, fell, rose;
   logic                 edge_now, cancels, after_glitch, starts, second, overflow, due;
   logic                 start1;
   logic [IdleWidth-1:0] high_next, before_next;
@@ -128,27 +130,35 @@ module autobaud_channel #(
   logic [AltWidth-1:0]  offset;
 
   always_comb begin
-    cancel_left_d = cancel_left_q == '0 ? cancel_left_q : cancel_left_q - 1'b1;
-    high_next     = idle_dec(high_left_q);
-    before_next   = idle_dec(before_left_q);
+    // The channel's samples: every Period clocks, from tick 0. Between them it holds.
+    sample        = phase_q == '0;
+    phase_d       = Period > 1 ? (sample ? PhaseBits'(Period - 1) : phase_q - 1'b1) : '0;
+    held_d        = sample ? level_i : held_q;
+    fell          = sample && held_q && !level_i;
+    rose          = sample && !held_q && level_i;
+    edge_left_d   = edge_left_q == '0 || !sample ? edge_left_q : edge_left_q - 1'b1;
+    cancel_left_d = cancel_left_q == '0 || !sample ? cancel_left_q : cancel_left_q - 1'b1;
+    high_next     = sample ? idle_dec(high_left_q) : high_left_q;
+    before_next   = sample ? idle_dec(before_left_q) : before_left_q;
     high_left_d   = high_next;
     before_left_d = before_next;
     measuring_d  = measuring_q;
-    since_t0_d   = since_t0_q + 1'b1;
-    decide_in_d  = decide_in_q - 1'b1;
+    since_t0_d   = sample ? since_t0_q + 1'b1 : since_t0_q;
+    decide_in_d  = sample ? decide_in_q - 1'b1 : decide_in_q;
     n_edges_d    = n_edges_q;
     alt_d        = alt_q;
     deferred_d   = deferred_q;
-    edge_now     = fell_i || rose_i;
+    edge_now     = fell || rose;
     cancels      = cancel_left_q != '0;
     idle_long    = high_left_q == '0;
-    after_glitch = edge_age_i <= AgeWidth'(Glitch);
-    starts       = fell_i && !after_glitch && idle_long;
+    after_glitch = edge_left_q != '0;
+    starts       = fell && !after_glitch && idle_long;
     overflow     = !starts && measuring_q && edge_now && n_edges_q == 5'(MaxEdges);
-    second       = !starts && measuring_q && fell_i && !overflow && after_glitch
+    second       = !starts && measuring_q && fell && !overflow && after_glitch
                    && since_t0_q < TimeWidth'(StartBitClocks);
     start1       = second;
-    due          = measuring_q && !starts && !second && !overflow && decide_in_q == '0;
+    due          = sample && measuring_q && !starts && !second && !overflow
+                   && decide_in_q == '0;
     from_start   = judge(bit0, shift0, tie0, glitches0, lead0, lag0, level_i);
     from_alt     = judge(bit1, shift1, tie1, glitches1, lead1, lag1, level_i);
     ok           = 1'b0;
@@ -158,11 +168,12 @@ module autobaud_channel #(
 
     // The idle line, with the rate's glitches removed.
     if (edge_now) begin
+      edge_left_d   = PendWidth'(Glitch);
       cancel_left_d = cancels ? '0 : PendWidth'(Glitch);
-      if (rose_i && !cancels) begin
+      if (rose && !cancels) begin
         high_left_d   = IdleWidth'(Tsyn - 1);
         before_left_d = high_next;
-      end else if (fell_i && cancels) begin
+      end else if (fell && cancels) begin
         high_left_d   = before_next;
         before_left_d = before_next;
       end
@@ -233,6 +244,7 @@ module autobaud_channel #(
     .two_inc_i            ((PhaseWidth + 1)'(TwoInc)),
     .modulo_less_inc_i    (PhaseWidth'(ModuloLessInc)),
     .modulo_less_two_inc_i(PhaseWidth'(ModuloLessTwoInc)),
+    .step_i               (sample),
     .start_i              (starts),
     .level_i,
     .edge_i               (edge_now),
@@ -258,6 +270,7 @@ module autobaud_channel #(
     .two_inc_i            ((PhaseWidth + 1)'(TwoInc)),
     .modulo_less_inc_i    (PhaseWidth'(ModuloLessInc)),
     .modulo_less_two_inc_i(PhaseWidth'(ModuloLessTwoInc)),
+    .step_i               (sample),
     .start_i              (start1),
     .level_i,
     .edge_i               (edge_now),
@@ -276,7 +289,12 @@ module autobaud_channel #(
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
-      // Reset is tick 0, with the line high since then: TSYN is all to come.
+      // Reset is tick 0, a sample, with the line high since then: TSYN is all to come, and
+      // the line's last edge is taken as at tick 0 (within a glitch of it until Glitch + 1
+      // samples have passed).
+      phase_q       <= '0;
+      held_q        <= 1'b1;
+      edge_left_q   <= PendWidth'(Glitch + 1);
       cancel_left_q <= '0;
       high_left_q   <= IdleWidth'(Tsyn);
       before_left_q <= IdleWidth'(Tsyn);
@@ -287,6 +305,9 @@ module autobaud_channel #(
       alt_q        <= '0;
       deferred_q   <= 1'b0;
     end else begin
+      phase_q       <= phase_d;
+      held_q        <= held_d;
+      edge_left_q   <= edge_left_d;
       cancel_left_q <= cancel_left_d;
       high_left_q   <= high_left_d;
       before_left_q <= before_left_d;

@@ -29,6 +29,9 @@ module char_reader #(
   input  wire [PhaseWidth:0]   two_inc_i,
   input  wire [PhaseWidth-1:0] modulo_less_inc_i,
   input  wire [PhaseWidth-1:0] modulo_less_two_inc_i,
+  // This clock is one of the reader's samples of the line (always, for a reader that samples
+  // every clock); between samples it holds.
+  input  wire                  step_i,
   input  wire                  start_i,
   input  wire                  level_i,
   input  wire                  edge_i,
@@ -96,7 +99,7 @@ module char_reader #(
       glitches_d  = '0;
       pair_open_d = 1'b0;
       pair_left_d = '0;
-    end else if (active) begin
+    end else if (active && step_i) begin
       if (edge_i) begin
         if (!off_grid || pair_open_q) begin
           // On the grid, or the second edge of a glitch inside a bit.

@@ -1,12 +1,12 @@
 // autobaud under the stimulus of crates/rtl-check (`rtl_check::blocks::autobaud`).
 //
 // Records: 'L' u8 level, u8 heard (an index into Baud::ALL, 0xFF none), u32 n: n clocks with
-// the synchronised line at level (fell_i or rose_i on the first if it changed) and that rate
-// heard. Outputs each clock, read before its edge (the search's decision is that clock's):
+// the synchronised line at level and that rate heard. Outputs each clock, read before its edge (the search's decision is that clock's):
 // bit 0 valid_o, bit 1 detect_o, bit 2 any channel measuring after the edge. An event on
 // each clock with a decision or a change of the channels measuring: measuring_o (u16), then
 // the decision: kind (0 none, 1 detection, 2 rejection), rate, byte (a rejection: its code),
-// start_age_o (u32; 0 for a rejection, which names no rate or start in the model).
+// start_age_o (u32, in the detecting channel's samples; 0 for a rejection, which names no rate
+// or start in the model).
 #include <memory>
 
 #include "Vautobaud.h"
@@ -27,15 +27,11 @@ int main(int argc, char** argv) {
   auto ctx = std::make_unique<VerilatedContext>();
   auto top = std::make_unique<Vautobaud>(ctx.get());
   uint32_t clock_n = 0;
-  uint8_t line = 1;
   uint16_t mask = 0;
   auto clock = [&](uint8_t level, uint8_t heard) {
     top->level_i = level;
-    top->fell_i = line && !level;
-    top->rose_i = !line && level;
     top->heard_valid_i = heard != 0xFF;
     top->heard_i = heard == 0xFF ? 0 : heard;
-    line = level;
     top->eval();
     std::vector<uint8_t> decision;
     uint8_t value = 0;
@@ -69,8 +65,6 @@ int main(int argc, char** argv) {
   };
   top->clk_i = 0;
   top->level_i = 1;
-  top->fell_i = 0;
-  top->rose_i = 0;
   top->heard_valid_i = 0;
   top->heard_i = 0;
   harness::reset(*top);

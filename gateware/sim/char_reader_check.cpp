@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
     clock_n++;
   };
   top->clk_i = 0;
+  top->step_i = 1;
   top->start_i = 0;
   top->level_i = 1;
   top->edge_i = 0;

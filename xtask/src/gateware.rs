@@ -52,10 +52,12 @@ pub fn run(args: &[String]) -> Result<()> {
         "  {:<28} {:>6} {:>6} {:>6} {:>5}   (yosys synth_ice40, stat)",
         "block", "LUT4", "carry", "DFF", "BRAM"
     );
-    let search = blocks::autobaud();
+    let search = blocks::autobaud(false);
+    let oversampled = blocks::autobaud(true);
     let builds = [
         blocks::line_sync(0),
         search.clone(),
+        oversampled.clone(),
         blocks::char_reader(blocks::run_time_width()),
         blocks::delimiter(),
         blocks::uart_tx(false),
@@ -73,38 +75,18 @@ pub fn run(args: &[String]) -> Result<()> {
             cells.bram
         );
     }
-    let json = out.join(format!("{}.json", search.build_name()));
-    let report = out.join("autobaud-pnr.log");
-    let output = Command::new(&tools.nextpnr)
-        .args(["--".to_string() + fpga.device, "--package".into()])
-        .arg(fpga.package)
-        .arg("--json")
-        .arg(&json)
-        .arg("--freq")
-        .arg(format!("{clock_mhz}"))
-        .output()
-        .context("running nextpnr-ice40")?;
-    let log = String::from_utf8_lossy(&output.stderr).to_string();
-    std::fs::write(&report, &log)?;
-    if !output.status.success() {
-        bail!(
-            "nextpnr-ice40 could not place and route the search on the {} (log in {}):\n{}",
-            fpga.part,
-            report.display(),
-            log.lines().rev().take(5).collect::<Vec<_>>().join("\n")
-        );
-    }
-    let (used, total) =
-        logic_cells(&log).ok_or_else(|| anyhow!("no ICESTORM_LC line in nextpnr's report"))?;
-    let fmax =
-        max_frequency(&log).ok_or_else(|| anyhow!("no Max frequency line in nextpnr's report"))?;
+    let (used, total, fmax) = place_and_route(&tools, &search, &out)?;
     println!(
-        "  the search on the part: {used}/{total} logic cells ({}%), Fmax {fmax:.1} MHz (nextpnr's report: {})",
-        used * 100 / total.max(1),
-        report.display()
+        "  the search on the part: {used}/{total} logic cells ({}%), Fmax {fmax:.1} MHz",
+        used * 100 / total.max(1)
+    );
+    let (o_used, _, o_fmax) = place_and_route(&tools, &oversampled, &out)?;
+    println!(
+        "  the oversampled search (not yet the transceiver's): {o_used}/{total} logic cells ({}%), Fmax {o_fmax:.1} MHz",
+        o_used * 100 / total.max(1)
     );
     println!(
-        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: no top module yet)",
+        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} clock_mhz={clock_mhz} oversampled_search_cells={o_used} bitstream=none (issue 27: no top module yet)",
         fpga.part
     );
     if total != u64::from(fpga.logic_cells) {
@@ -113,10 +95,44 @@ pub fn run(args: &[String]) -> Result<()> {
             fpga.logic_cells
         );
     }
-    if fmax < clock_mhz {
-        bail!("the search reaches {fmax:.1} MHz, under the {clock_mhz} MHz clock");
+    if fmax < clock_mhz || o_fmax < clock_mhz {
+        bail!("the search reaches {fmax:.1} MHz (oversampled {o_fmax:.1}), under the {clock_mhz} MHz clock");
     }
     Ok(())
+}
+
+/// nextpnr-ice40 on `block`'s netlist (from [`synthesise`]) for the board's FPGA at its
+/// sample clock: the logic cells used and in the part, and the routed Fmax. Its report goes
+/// to `<build>-pnr.log` in `out`.
+fn place_and_route(tools: &Tools, block: &Block, out: &Path) -> Result<(u64, u64, f64)> {
+    let fpga = TRANSCEIVER_FPGA;
+    let name = block.build_name();
+    let report = out.join(format!("{name}-pnr.log"));
+    let output = Command::new(&tools.nextpnr)
+        .arg(format!("--{}", fpga.device))
+        .arg("--package")
+        .arg(fpga.package)
+        .arg("--json")
+        .arg(out.join(format!("{name}.json")))
+        .arg("--freq")
+        .arg(format!("{}", f64::from(fpga.sample_clock_hz) / 1e6))
+        .output()
+        .context("running nextpnr-ice40")?;
+    let log = String::from_utf8_lossy(&output.stderr).to_string();
+    std::fs::write(&report, &log)?;
+    if !output.status.success() {
+        bail!(
+            "nextpnr-ice40 could not place and route {name} on the {} (log in {}):\n{}",
+            fpga.part,
+            report.display(),
+            log.lines().rev().take(5).collect::<Vec<_>>().join("\n")
+        );
+    }
+    let (used, total) =
+        logic_cells(&log).ok_or_else(|| anyhow!("no ICESTORM_LC line in {}", report.display()))?;
+    let fmax = max_frequency(&log)
+        .ok_or_else(|| anyhow!("no Max frequency line in {}", report.display()))?;
+    Ok((used, total, fmax))
 }
 
 /// `synth_ice40` of `block` with its parameters; its netlist goes to `<build>.json` in `out`.

@@ -55,7 +55,11 @@ pub fn run(args: &[String]) -> Result<()> {
             blocks::char_reader(run_time),
             blocks::char_reader_cases(&reader_rates, run_time, quick),
         ),
-        (blocks::autobaud(), blocks::autobaud_cases(quick)),
+        (
+            blocks::autobaud(false),
+            blocks::autobaud_cases(quick, false),
+        ),
+        (blocks::autobaud(true), blocks::autobaud_cases(quick, true)),
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
     ];

@@ -21,61 +21,97 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::fmt::Write as _;
 
-pub fn autobaud() -> Block {
+/// The search as the transceiver builds it, or (`oversampled`) with the channels up to
+/// 1.5 Mbit/s sampling the line every few clocks.
+pub fn autobaud(oversampled: bool) -> Block {
     Block {
         top: "autobaud",
         rtl: &["autobaud.v", "autobaud_channel.v", "char_reader.v"],
         signals: &["valid", "detect", "measuring"],
-        params: Vec::new(),
+        params: vec![("Oversampled", i64::from(oversampled))],
         twin: "dp_phy::autobaud::AutoBaud",
         events: true,
     }
 }
 
-/// The channels' instances with the model's figures (`gateware/rtl/autobaud_channels.svh`).
+/// The clocks between each channel's samples in the build with `Oversampled` set or not.
+pub fn periods(oversampled: bool) -> [u64; 10] {
+    if oversampled {
+        dp_phy::autobaud::OVERSAMPLED
+    } else {
+        dp_phy::autobaud::EVERY_CLOCK
+    }
+}
+
+/// The channels' instances with the model's figures (`gateware/rtl/autobaud_channels.svh`):
+/// one set sampling every clock, one oversampling, chosen by autobaud.v's `Oversampled`.
 pub fn channels_svh() -> String {
-    let search = AutoBaud::new(DEFAULT_CLOCK_HZ);
     let mut s = String::from(
         "// Written by crates/rtl-check (`blocks::autobaud::channels_svh`) from\n\
          // dp_phy::autobaud::AutoBaud::channel_figures at 48 MHz: one channel per rate, 9.6k\n\
-         // first. A test holds this file equal to the model's figures; do not edit.\n",
+         // first, every figure in the channel's samples. A test holds this file equal to the\n\
+         // model's figures; do not edit.\n",
     );
-    for (r, baud) in Baud::ALL.iter().enumerate() {
-        let f = search.channel_figures(*baud);
-        let c = f.reader;
-        let width = super::width_of(*baud);
+    for oversampled in [true, false] {
+        let search = AutoBaud::sampled(DEFAULT_CLOCK_HZ, periods(oversampled));
         let _ = write!(
             s,
-            "\n  // {baud}\n  autobaud_channel #(\n    \
-             .PhaseWidth({width}), .Inc({}), .Modulo({}), .Quarter({}), .ThreeQuarters({}),\n    \
-             .HalfLessInc({}), .TwoInc({}), .ModuloLessInc({}), .ModuloLessTwoInc({}),\n    \
-             .Glitch({}), .Tsyn({}), .StopMiddle({}), .StopEnd({}), .StartBitClocks({}),\n    \
-             .IdleWidth({}), .PendWidth({}), .TimeWidth({}), .AltWidth({}),\n    \
-             .AgeWidth(AgeWidth), .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)\n  \
-             ) u_channel_{r} (\n    \
-             .clk_i, .rst_ni, .level_i, .fell_i, .rose_i, .edge_age_i(edge_age_q),\n    \
-             .heard_i(heard[{r}]), .heard_any_i(heard_valid_i), .detect_o(detect[{r}]),\n    \
-             .reject_o(reject[{r}]), .reject_code_o(reject_code[{r} * 2 +: 2]),\n    \
-             .byte_o(bytes[{r} * 8 +: 8]), .since_t0_o(since_t0[{r} * TimeWidth +: TimeWidth]),\n    \
-             .offset_o(offset[{r} * AltWidth +: AltWidth]), .measuring_o(measuring_o[{r}])\n  );\n",
-            c.inc,
-            c.modulo,
-            c.quarter,
-            c.three_quarters,
-            c.half_less_inc,
-            c.two_inc,
-            c.modulo_less_inc,
-            c.modulo_less_two_inc,
-            f.glitch,
-            f.tsyn,
-            f.stop_middle,
-            f.stop_end,
-            f.start_bit_clocks,
-            bits_for(f.tsyn),
-            bits_for(f.glitch + 1),
-            bits_for(f.start_bit_clocks + f.stop_end),
-            bits_for(f.start_bit_clocks),
+            "\n  {}begin : g_{}\n",
+            if oversampled {
+                "if (Oversampled != 0) "
+            } else {
+                "else "
+            },
+            if oversampled {
+                "oversampled"
+            } else {
+                "every_clock"
+            }
         );
+        for (r, baud) in Baud::ALL.iter().enumerate() {
+            let f = search.channel_figures(*baud);
+            let c = f.reader;
+            // The model's figures are clocks, whole samples each.
+            let (glitch, tsyn, stop_middle, stop_end) = (
+                f.glitch / f.period,
+                f.tsyn / f.period,
+                f.stop_middle / f.period,
+                f.stop_end / f.period,
+            );
+            let _ = write!(
+                s,
+                "\n    // {baud}, a sample every {} clock(s)\n    autobaud_channel #(\n      \
+                 .PhaseWidth({}), .Inc({}), .Modulo({}), .Quarter({}), .ThreeQuarters({}),\n      \
+                 .HalfLessInc({}), .TwoInc({}), .ModuloLessInc({}), .ModuloLessTwoInc({}),\n      \
+                 .Glitch({glitch}), .Tsyn({tsyn}), .StopMiddle({stop_middle}), .StopEnd({stop_end}),\n      \
+                 .StartBitClocks({}), .Period({}),\n      \
+                 .IdleWidth({}), .PendWidth({}), .TimeWidth({}), .AltWidth({}),\n      \
+                 .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)\n    \
+                 ) u_channel_{r} (\n      \
+                 .clk_i, .rst_ni, .level_i,\n      \
+                 .heard_i(heard[{r}]), .heard_any_i(heard_valid_i), .detect_o(detect[{r}]),\n      \
+                 .reject_o(reject[{r}]), .reject_code_o(reject_code[{r} * 2 +: 2]),\n      \
+                 .byte_o(bytes[{r} * 8 +: 8]), .since_t0_o(since_t0[{r} * TimeWidth +: TimeWidth]),\n      \
+                 .offset_o(offset[{r} * AltWidth +: AltWidth]), .measuring_o(measuring_o[{r}])\n    );\n",
+                f.period,
+                bits_for(c.modulo),
+                c.inc,
+                c.modulo,
+                c.quarter,
+                c.three_quarters,
+                c.half_less_inc,
+                c.two_inc,
+                c.modulo_less_inc,
+                c.modulo_less_two_inc,
+                f.start_bit_clocks,
+                f.period,
+                bits_for(tsyn),
+                bits_for(glitch + 1),
+                bits_for(f.start_bit_clocks + stop_end),
+                bits_for(f.start_bit_clocks),
+            );
+        }
+        s.push_str("  end\n");
     }
     s
 }
@@ -97,6 +133,7 @@ fn reject_code(reject: Reject) -> u8 {
 /// transceiver's synchroniser) and the rate heard.
 struct SearchCase {
     search: AutoBaud,
+    periods: [u64; 10],
     q: AutoBaudQ,
     sync: FilterQ,
     now: u64,
@@ -108,9 +145,10 @@ struct SearchCase {
 }
 
 impl SearchCase {
-    fn new() -> SearchCase {
+    fn new(oversampled: bool) -> SearchCase {
         SearchCase {
-            search: AutoBaud::new(DEFAULT_CLOCK_HZ),
+            search: AutoBaud::sampled(DEFAULT_CLOCK_HZ, periods(oversampled)),
+            periods: periods(oversampled),
             q: AUTOBAUD_RESET,
             sync: FILTER_RESET,
             now: 0,
@@ -154,7 +192,9 @@ impl SearchCase {
             Some(Ok(d)) => {
                 value |= 0b11;
                 payload.extend([1, d.baud.index() as u8, d.byte]);
-                payload.extend(((self.now - d.start) as u32).to_le_bytes());
+                // In the detecting channel's samples, as the RTL counts.
+                let age = (self.now - d.start) / self.periods[d.baud.index()];
+                payload.extend((age as u32).to_le_bytes());
             }
             Some(Err(e)) => {
                 value |= 0b01;
@@ -200,12 +240,23 @@ impl SearchCase {
 
 /// A master at `baud` (`ppm` off) sending polls with `noise` glitches per telegram, from
 /// power-up or after the adapter was locked at `from`; the transceiver gives the rate heard.
-fn master_case(baud: Baud, ppm: i32, noise: u32, from: Option<Baud>, seed: u64) -> Case {
+fn master_case(
+    oversampled: bool,
+    baud: Baud,
+    ppm: i32,
+    noise: u32,
+    from: Option<Baud>,
+    seed: u64,
+) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let target = BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm);
     let first = from.map_or(target, |f| BitTiming::new(DEFAULT_CLOCK_HZ, f, -ppm));
-    let mut tb = Testbench::new(Config::default(), first, FaultInjector::none());
-    let mut case = SearchCase::new();
+    let cfg = Config {
+        search_periods: periods(oversampled),
+        ..Config::default()
+    };
+    let mut tb = Testbench::new(cfg, first, FaultInjector::none());
+    let mut case = SearchCase::new(oversampled);
     let step = |tb: &mut Testbench, case: &mut SearchCase| {
         let heard = tb.adapter.heard();
         tb.step_strict();
@@ -243,15 +294,18 @@ fn master_case(baud: Baud, ppm: i32, noise: u32, from: Option<Baud>, seed: u64) 
     }
     run_out(&mut tb, &mut case);
     let scenario = from.map_or("power-up".to_string(), |f| format!("from-{f}"));
-    case.finish(format!("autobaud-{baud}-{scenario}-{ppm}ppm-noise{noise}"))
+    let build = if oversampled { "oversampled-" } else { "" };
+    case.finish(format!(
+        "autobaud-{build}{baud}-{scenario}-{ppm}ppm-noise{noise}"
+    ))
 }
 
 /// A seeded random line: runs of any length up to a few of `baud`'s bits, now and then an
 /// idle of TSYN at a random rate and a start delimiter's worth of random levels at it, the rate
 /// heard set and cleared at random.
-fn random_case(baud: Baud, seed: u64, clocks: u64) -> Case {
+fn random_case(oversampled: bool, baud: Baud, seed: u64, clocks: u64) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut case = SearchCase::new();
+    let mut case = SearchCase::new(oversampled);
     let (mut level, mut heard) = (true, None);
     let bit = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0).clocks_per_bit();
     while case.now < clocks {
@@ -274,10 +328,11 @@ fn random_case(baud: Baud, seed: u64, clocks: u64) -> Case {
             case.clock(level, heard);
         }
     }
-    case.finish(format!("autobaud-random-{baud}-{seed}"))
+    let build = if oversampled { "oversampled-" } else { "" };
+    case.finish(format!("autobaud-{build}random-{baud}-{seed}"))
 }
 
-pub fn autobaud_cases(quick: bool) -> Vec<Case> {
+pub fn autobaud_cases(quick: bool, oversampled: bool) -> Vec<Case> {
     let offsets: &[i32] = if quick { &[0] } else { &[-5000, 0, 5000] };
     let noises: &[u32] = if quick { &[0, 1] } else { &[0, 1, 3] };
     let mut cases = Vec::new();
@@ -291,7 +346,7 @@ pub fn autobaud_cases(quick: bool) -> Vec<Case> {
             for &ppm in offsets {
                 for &noise in noises {
                     seed += 1;
-                    cases.push(master_case(baud, ppm, noise, from, seed));
+                    cases.push(master_case(oversampled, baud, ppm, noise, from, seed));
                 }
             }
         }
@@ -302,7 +357,7 @@ pub fn autobaud_cases(quick: bool) -> Vec<Case> {
         &[Baud::B187500, Baud::B1500000, Baud::B12000000]
     };
     for (i, &baud) in random.iter().enumerate() {
-        cases.push(random_case(baud, 1000 + i as u64, 2_000_000));
+        cases.push(random_case(oversampled, baud, 1000 + i as u64, 2_000_000));
     }
     cases
 }

@@ -13,11 +13,7 @@
 #include "harness.h"
 #include "verilated.h"
 
-namespace {
-void put(std::vector<uint8_t>& v, uint32_t x, int bytes) {
-  for (int i = 0; i < bytes; i++) v.push_back((x >> (8 * i)) & 0xFF);
-}
-}  // namespace
+using harness::put;
 
 int main(int argc, char** argv) {
   if (argc != 4) harness::fail("usage: check <stimulus> <outputs> <events>");

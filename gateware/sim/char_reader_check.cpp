@@ -15,9 +15,8 @@
 namespace {
 constexpr int kPhaseWidth = PARAM_PhaseWidth;
 
-void put(std::vector<uint8_t>& v, uint32_t x, int bytes) {
-  for (int i = 0; i < bytes; i++) v.push_back((x >> (8 * i)) & 0xFF);
-}
+using harness::put;
+
 // lead_o or lag_o, PhaseWidth + 1 bits of two's complement, as 32.
 uint32_t balance(uint32_t raw) {
   const int width = kPhaseWidth + 1;

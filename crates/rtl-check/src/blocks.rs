@@ -21,6 +21,11 @@ use dp_phy::BitTiming;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+/// Bits that hold `n` (a counter of `n` clocks; one saturating at all ones is past `n`).
+fn bits_for(n: u64) -> u32 {
+    u64::BITS - n.leading_zeros()
+}
+
 /// The transceiver's blocks in the order the signal meets them, and whether the gateware has
 /// them yet (README "Gateware").
 pub const TRANSCEIVER_BLOCKS: [(&str, bool); 8] = [

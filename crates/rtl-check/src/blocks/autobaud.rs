@@ -9,6 +9,7 @@
 //! `gateware/rtl/autobaud_channels.svh` from [`AutoBaud::channel_figures`], and a test holds
 //! the file equal to it.
 
+use super::bits_for;
 use crate::{Block, Case, Event, Trace};
 use dp_consts::Baud;
 use dp_phy::autobaud::{AutoBaud, AutoBaudQ, Reject, AUTOBAUD_RESET};
@@ -114,11 +115,6 @@ pub fn channels_svh() -> String {
         s.push_str("  end\n");
     }
     s
-}
-
-/// Bits that hold `n`: a counter saturating at all ones is past `n`.
-fn bits_for(n: u64) -> u32 {
-    u64::BITS - n.leading_zeros()
 }
 
 fn reject_code(reject: Reject) -> u8 {

@@ -3,6 +3,7 @@
 //! it, stops, and the expiry held off (the baud watchdog inside a telegram), at the baud
 //! watchdog's width and the DP watchdog's.
 
+use super::bits_for;
 use crate::{Block, Case, Event, Trace};
 use dp_phy::watchdog::Watchdog;
 use rand::{Rng, SeedableRng};
@@ -18,11 +19,6 @@ pub fn watchdog(width: u32) -> Block {
         twin: "dp_phy::watchdog::Watchdog",
         events: true,
     }
-}
-
-/// Bits that count `clocks`.
-fn bits_for(clocks: u64) -> u32 {
-    u64::BITS - clocks.leading_zeros()
 }
 
 /// The baud-control watchdog's width: its clocks in the transceiver's configuration (200 ms at

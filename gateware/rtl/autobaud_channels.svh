@@ -1,112 +1,39 @@
-// Written by crates/rtl-check (`blocks::autobaud::channels_svh`) from
-// dp_phy::autobaud::AutoBaud::channel_figures at 48 MHz: one channel per rate, 9.6k
-// first, every figure in the channel's samples. A test holds this file equal to the
-// model's figures; do not edit.
+// Written by crates/rtl-check (`blocks::autobaud`) from
+// dp_phy::autobaud::AutoBaud::channel_figures at 48 MHz, every figure in the channel's
+// samples. A test holds this file equal to the model's figures; do not edit.
+// One channel per rate, 9.6k first.
 
   if (Oversampled != 0) begin : g_oversampled
 
-    // 9.6k, a sample every 250 clock(s)
-    autobaud_channel #(
-      .PhaseWidth(5), .Inc(1), .Modulo(20), .Quarter(5), .ThreeQuarters(15),
-      .HalfLessInc(9), .TwoInc(2), .ModuloLessInc(19), .ModuloLessTwoInc(18),
-      .Glitch(9), .Tsyn(650), .StopMiddle(210), .StopEnd(220),
-      .StartBitClocks(20), .Period(250),
-      .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
+    // 9.6k to 500k, taking turns: slot s is the rate of index s (autobaud_slots.svh)
+    logic [1:0] shared_code;
+    logic [7:0] shared_byte;
+    logic [TimeWidth-1:0] shared_since;
+    logic [AltWidth-1:0] shared_offset;
+    autobaud_shared #(
+      .Slots(6), .PhaseWidth(7), .IdleWidth(10), .PendWidth(4),
+      .TimeWidth(9), .AltWidth(5), .FrameWidth(6),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
-    ) u_channel_0 (
+    ) u_shared (
       .clk_i, .rst_ni, .level_i,
-      .heard_i(heard[0]), .heard_any_i(heard_valid_i), .detect_o(detect[0]),
-      .reject_o(reject[0]), .reject_code_o(reject_code[0 * 2 +: 2]),
-      .byte_o(bytes[0 * 8 +: 8]), .since_t0_o(since_t0[0 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[0 * AltWidth +: AltWidth]), .measuring_o(measuring_o[0])
+      .heard_i(heard[5:0]), .heard_any_i(heard_valid_i), .detect_o(detect[5:0]),
+      .reject_o(reject[5:0]), .reject_code_o(shared_code), .byte_o(shared_byte),
+      .since_t0_o(shared_since), .offset_o(shared_offset), .measuring_o(measuring_o[5:0])
     );
+    for (genvar r = 0; r < 6; r++) begin : g_shared
+      assign reject_code[r * 2 +: 2] = shared_code;
+      assign bytes[r * 8 +: 8] = shared_byte;
+      assign since_t0[r * TimeWidth +: TimeWidth] = shared_since;
+      assign offset[r * AltWidth +: AltWidth] = shared_offset;
+    end
 
-    // 19.2k, a sample every 125 clock(s)
-    autobaud_channel #(
-      .PhaseWidth(5), .Inc(1), .Modulo(20), .Quarter(5), .ThreeQuarters(15),
-      .HalfLessInc(9), .TwoInc(2), .ModuloLessInc(19), .ModuloLessTwoInc(18),
-      .Glitch(9), .Tsyn(650), .StopMiddle(210), .StopEnd(220),
-      .StartBitClocks(20), .Period(125),
-      .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
-    ) u_channel_1 (
-      .clk_i, .rst_ni, .level_i,
-      .heard_i(heard[1]), .heard_any_i(heard_valid_i), .detect_o(detect[1]),
-      .reject_o(reject[1]), .reject_code_o(reject_code[1 * 2 +: 2]),
-      .byte_o(bytes[1 * 8 +: 8]), .since_t0_o(since_t0[1 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[1 * AltWidth +: AltWidth]), .measuring_o(measuring_o[1])
-    );
 
-    // 45.45k, a sample every 66 clock(s)
-    autobaud_channel #(
-      .PhaseWidth(18), .Inc(9999), .Modulo(160000), .Quarter(40000), .ThreeQuarters(120000),
-      .HalfLessInc(70001), .TwoInc(19998), .ModuloLessInc(150001), .ModuloLessTwoInc(140002),
-      .Glitch(7), .Tsyn(521), .StopMiddle(169), .StopEnd(177),
-      .StartBitClocks(17), .Period(66),
-      .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
-    ) u_channel_2 (
-      .clk_i, .rst_ni, .level_i,
-      .heard_i(heard[2]), .heard_any_i(heard_valid_i), .detect_o(detect[2]),
-      .reject_o(reject[2]), .reject_code_o(reject_code[2 * 2 +: 2]),
-      .byte_o(bytes[2 * 8 +: 8]), .since_t0_o(since_t0[2 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[2 * AltWidth +: AltWidth]), .measuring_o(measuring_o[2])
-    );
-
-    // 93.75k, a sample every 32 clock(s)
+    // 1.5M, a sample every 2 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(5), .Inc(1), .Modulo(16), .Quarter(4), .ThreeQuarters(12),
       .HalfLessInc(7), .TwoInc(2), .ModuloLessInc(15), .ModuloLessTwoInc(14),
       .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
-      .StartBitClocks(16), .Period(32),
-      .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
-    ) u_channel_3 (
-      .clk_i, .rst_ni, .level_i,
-      .heard_i(heard[3]), .heard_any_i(heard_valid_i), .detect_o(detect[3]),
-      .reject_o(reject[3]), .reject_code_o(reject_code[3 * 2 +: 2]),
-      .byte_o(bytes[3 * 8 +: 8]), .since_t0_o(since_t0[3 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[3 * AltWidth +: AltWidth]), .measuring_o(measuring_o[3])
-    );
-
-    // 187.5k, a sample every 16 clock(s)
-    autobaud_channel #(
-      .PhaseWidth(5), .Inc(1), .Modulo(16), .Quarter(4), .ThreeQuarters(12),
-      .HalfLessInc(7), .TwoInc(2), .ModuloLessInc(15), .ModuloLessTwoInc(14),
-      .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
-      .StartBitClocks(16), .Period(16),
-      .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
-    ) u_channel_4 (
-      .clk_i, .rst_ni, .level_i,
-      .heard_i(heard[4]), .heard_any_i(heard_valid_i), .detect_o(detect[4]),
-      .reject_o(reject[4]), .reject_code_o(reject_code[4 * 2 +: 2]),
-      .byte_o(bytes[4 * 8 +: 8]), .since_t0_o(since_t0[4 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[4 * AltWidth +: AltWidth]), .measuring_o(measuring_o[4])
-    );
-
-    // 500k, a sample every 6 clock(s)
-    autobaud_channel #(
-      .PhaseWidth(5), .Inc(1), .Modulo(16), .Quarter(4), .ThreeQuarters(12),
-      .HalfLessInc(7), .TwoInc(2), .ModuloLessInc(15), .ModuloLessTwoInc(14),
-      .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
-      .StartBitClocks(16), .Period(6),
-      .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
-    ) u_channel_5 (
-      .clk_i, .rst_ni, .level_i,
-      .heard_i(heard[5]), .heard_any_i(heard_valid_i), .detect_o(detect[5]),
-      .reject_o(reject[5]), .reject_code_o(reject_code[5 * 2 +: 2]),
-      .byte_o(bytes[5 * 8 +: 8]), .since_t0_o(since_t0[5 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[5 * AltWidth +: AltWidth]), .measuring_o(measuring_o[5])
-    );
-
-    // 1.5M, a sample every 2 clock(s)
-    autobaud_channel #(
-      .PhaseWidth(5), .Inc(1), .Modulo(16), .Quarter(4), .ThreeQuarters(12),
-      .HalfLessInc(7), .TwoInc(2), .ModuloLessInc(15), .ModuloLessTwoInc(14),
-      .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
-      .StartBitClocks(16), .Period(2),
+      .StartBitClocks(16), .Period(2), .Phase(0),
       .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_6 (
@@ -117,12 +44,12 @@
       .offset_o(offset[6 * AltWidth +: AltWidth]), .measuring_o(measuring_o[6])
     );
 
-    // 3M, a sample every 1 clock(s)
+    // 3M, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(5), .Inc(1), .Modulo(16), .Quarter(4), .ThreeQuarters(12),
       .HalfLessInc(7), .TwoInc(2), .ModuloLessInc(15), .ModuloLessTwoInc(14),
       .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
-      .StartBitClocks(16), .Period(1),
+      .StartBitClocks(16), .Period(1), .Phase(0),
       .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_7 (
@@ -133,12 +60,12 @@
       .offset_o(offset[7 * AltWidth +: AltWidth]), .measuring_o(measuring_o[7])
     );
 
-    // 6M, a sample every 1 clock(s)
+    // 6M, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(4), .Inc(1), .Modulo(8), .Quarter(2), .ThreeQuarters(6),
       .HalfLessInc(3), .TwoInc(2), .ModuloLessInc(7), .ModuloLessTwoInc(6),
       .Glitch(3), .Tsyn(260), .StopMiddle(84), .StopEnd(88),
-      .StartBitClocks(8), .Period(1),
+      .StartBitClocks(8), .Period(1), .Phase(0),
       .IdleWidth(9), .PendWidth(3), .TimeWidth(7), .AltWidth(4),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_8 (
@@ -149,12 +76,12 @@
       .offset_o(offset[8 * AltWidth +: AltWidth]), .measuring_o(measuring_o[8])
     );
 
-    // 12M, a sample every 1 clock(s)
+    // 12M, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(3), .Inc(1), .Modulo(4), .Quarter(1), .ThreeQuarters(3),
       .HalfLessInc(1), .TwoInc(2), .ModuloLessInc(3), .ModuloLessTwoInc(2),
       .Glitch(1), .Tsyn(130), .StopMiddle(42), .StopEnd(44),
-      .StartBitClocks(4), .Period(1),
+      .StartBitClocks(4), .Period(1), .Phase(0),
       .IdleWidth(8), .PendWidth(2), .TimeWidth(6), .AltWidth(3),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_9 (
@@ -168,12 +95,12 @@
 
   else begin : g_every_clock
 
-    // 9.6k, a sample every 1 clock(s)
+    // 9.6k, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(13), .Inc(1), .Modulo(5000), .Quarter(1250), .ThreeQuarters(3750),
       .HalfLessInc(2499), .TwoInc(2), .ModuloLessInc(4999), .ModuloLessTwoInc(4998),
       .Glitch(2499), .Tsyn(162500), .StopMiddle(52500), .StopEnd(55000),
-      .StartBitClocks(5000), .Period(1),
+      .StartBitClocks(5000), .Period(1), .Phase(0),
       .IdleWidth(18), .PendWidth(12), .TimeWidth(16), .AltWidth(13),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_0 (
@@ -184,12 +111,12 @@
       .offset_o(offset[0 * AltWidth +: AltWidth]), .measuring_o(measuring_o[0])
     );
 
-    // 19.2k, a sample every 1 clock(s)
+    // 19.2k, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(12), .Inc(1), .Modulo(2500), .Quarter(625), .ThreeQuarters(1875),
       .HalfLessInc(1249), .TwoInc(2), .ModuloLessInc(2499), .ModuloLessTwoInc(2498),
       .Glitch(1249), .Tsyn(81250), .StopMiddle(26250), .StopEnd(27500),
-      .StartBitClocks(2500), .Period(1),
+      .StartBitClocks(2500), .Period(1), .Phase(0),
       .IdleWidth(17), .PendWidth(11), .TimeWidth(15), .AltWidth(12),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_1 (
@@ -200,12 +127,12 @@
       .offset_o(offset[1 * AltWidth +: AltWidth]), .measuring_o(measuring_o[1])
     );
 
-    // 45.45k, a sample every 1 clock(s)
+    // 45.45k, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(19), .Inc(303), .Modulo(320000), .Quarter(80000), .ThreeQuarters(240000),
       .HalfLessInc(159697), .TwoInc(606), .ModuloLessInc(319697), .ModuloLessTwoInc(319394),
       .Glitch(527), .Tsyn(34324), .StopMiddle(11090), .StopEnd(11618),
-      .StartBitClocks(1057), .Period(1),
+      .StartBitClocks(1057), .Period(1), .Phase(0),
       .IdleWidth(16), .PendWidth(10), .TimeWidth(14), .AltWidth(11),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_2 (
@@ -216,12 +143,12 @@
       .offset_o(offset[2 * AltWidth +: AltWidth]), .measuring_o(measuring_o[2])
     );
 
-    // 93.75k, a sample every 1 clock(s)
+    // 93.75k, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(10), .Inc(1), .Modulo(512), .Quarter(128), .ThreeQuarters(384),
       .HalfLessInc(255), .TwoInc(2), .ModuloLessInc(511), .ModuloLessTwoInc(510),
       .Glitch(255), .Tsyn(16640), .StopMiddle(5376), .StopEnd(5632),
-      .StartBitClocks(512), .Period(1),
+      .StartBitClocks(512), .Period(1), .Phase(0),
       .IdleWidth(15), .PendWidth(9), .TimeWidth(13), .AltWidth(10),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_3 (
@@ -232,12 +159,12 @@
       .offset_o(offset[3 * AltWidth +: AltWidth]), .measuring_o(measuring_o[3])
     );
 
-    // 187.5k, a sample every 1 clock(s)
+    // 187.5k, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(9), .Inc(1), .Modulo(256), .Quarter(64), .ThreeQuarters(192),
       .HalfLessInc(127), .TwoInc(2), .ModuloLessInc(255), .ModuloLessTwoInc(254),
       .Glitch(127), .Tsyn(8320), .StopMiddle(2688), .StopEnd(2816),
-      .StartBitClocks(256), .Period(1),
+      .StartBitClocks(256), .Period(1), .Phase(0),
       .IdleWidth(14), .PendWidth(8), .TimeWidth(12), .AltWidth(9),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_4 (
@@ -248,12 +175,12 @@
       .offset_o(offset[4 * AltWidth +: AltWidth]), .measuring_o(measuring_o[4])
     );
 
-    // 500k, a sample every 1 clock(s)
+    // 500k, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(7), .Inc(1), .Modulo(96), .Quarter(24), .ThreeQuarters(72),
       .HalfLessInc(47), .TwoInc(2), .ModuloLessInc(95), .ModuloLessTwoInc(94),
       .Glitch(47), .Tsyn(3120), .StopMiddle(1008), .StopEnd(1056),
-      .StartBitClocks(96), .Period(1),
+      .StartBitClocks(96), .Period(1), .Phase(0),
       .IdleWidth(12), .PendWidth(6), .TimeWidth(11), .AltWidth(7),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_5 (
@@ -264,12 +191,12 @@
       .offset_o(offset[5 * AltWidth +: AltWidth]), .measuring_o(measuring_o[5])
     );
 
-    // 1.5M, a sample every 1 clock(s)
+    // 1.5M, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(6), .Inc(1), .Modulo(32), .Quarter(8), .ThreeQuarters(24),
       .HalfLessInc(15), .TwoInc(2), .ModuloLessInc(31), .ModuloLessTwoInc(30),
       .Glitch(15), .Tsyn(1040), .StopMiddle(336), .StopEnd(352),
-      .StartBitClocks(32), .Period(1),
+      .StartBitClocks(32), .Period(1), .Phase(0),
       .IdleWidth(11), .PendWidth(5), .TimeWidth(9), .AltWidth(6),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_6 (
@@ -280,12 +207,12 @@
       .offset_o(offset[6 * AltWidth +: AltWidth]), .measuring_o(measuring_o[6])
     );
 
-    // 3M, a sample every 1 clock(s)
+    // 3M, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(5), .Inc(1), .Modulo(16), .Quarter(4), .ThreeQuarters(12),
       .HalfLessInc(7), .TwoInc(2), .ModuloLessInc(15), .ModuloLessTwoInc(14),
       .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
-      .StartBitClocks(16), .Period(1),
+      .StartBitClocks(16), .Period(1), .Phase(0),
       .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_7 (
@@ -296,12 +223,12 @@
       .offset_o(offset[7 * AltWidth +: AltWidth]), .measuring_o(measuring_o[7])
     );
 
-    // 6M, a sample every 1 clock(s)
+    // 6M, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(4), .Inc(1), .Modulo(8), .Quarter(2), .ThreeQuarters(6),
       .HalfLessInc(3), .TwoInc(2), .ModuloLessInc(7), .ModuloLessTwoInc(6),
       .Glitch(3), .Tsyn(260), .StopMiddle(84), .StopEnd(88),
-      .StartBitClocks(8), .Period(1),
+      .StartBitClocks(8), .Period(1), .Phase(0),
       .IdleWidth(9), .PendWidth(3), .TimeWidth(7), .AltWidth(4),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_8 (
@@ -312,12 +239,12 @@
       .offset_o(offset[8 * AltWidth +: AltWidth]), .measuring_o(measuring_o[8])
     );
 
-    // 12M, a sample every 1 clock(s)
+    // 12M, a sample every 1 clock(s) from tick 0
     autobaud_channel #(
       .PhaseWidth(3), .Inc(1), .Modulo(4), .Quarter(1), .ThreeQuarters(3),
       .HalfLessInc(1), .TwoInc(2), .ModuloLessInc(3), .ModuloLessTwoInc(2),
       .Glitch(1), .Tsyn(130), .StopMiddle(42), .StopEnd(44),
-      .StartBitClocks(4), .Period(1),
+      .StartBitClocks(4), .Period(1), .Phase(0),
       .IdleWidth(8), .PendWidth(2), .TimeWidth(6), .AltWidth(3),
       .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)
     ) u_channel_9 (

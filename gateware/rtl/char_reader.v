@@ -48,131 +48,27 @@ module char_reader #(
   output wire [PhaseWidth:0]   lag_o,
   output wire [PhaseWidth-1:0] pair_left_o
 );
-  localparam int CharBits = 11;
-  localparam int GlitchesMax = 3;
-  // lead and lag: signed, PhaseWidth + 1 bits (a bit's balance is within +-modulo).
   localparam int BalanceWidth = PhaseWidth + 1;
+  localparam int StateWidth = 4 * PhaseWidth + 21;
+  // CHAR_READER_RESET: bit 11 (holding still), the rest 0.
+  localparam logic [StateWidth-1:0] Reset = {4'd11, (StateWidth - 4)'(0)};
 
-  // CHAR_READER_RESET.
-  logic [3:0]              bit_q, bit_d;
-  logic [PhaseWidth-1:0]   rem_q, rem_d;
-  logic [BalanceWidth-1:0] lead_q, lead_d;
-  logic [BalanceWidth-1:0] lag_q, lag_d;
-  logic [10:0]             shift_q, shift_d;
-  logic                    tie_q, tie_d;
-  logic [1:0]              glitches_q, glitches_d;
-  logic                    pair_open_q, pair_open_d;
-  logic [PhaseWidth-1:0]   pair_left_q, pair_left_d;
+  logic [StateWidth-1:0] state_q, state_d;
 
-  logic                    active, ends, off_grid, pair_runs;
-  logic [BalanceWidth-1:0] total, twice_rem, modulo_s, modulo_less_two_inc_s;
-  logic [PhaseWidth:0]     pair_less;
-
-  always_comb begin
-    bit_d       = bit_q;
-    rem_d       = rem_q;
-    lead_d      = lead_q;
-    lag_d       = lag_q;
-    shift_d     = shift_q;
-    tie_d       = tie_q;
-    glitches_d  = glitches_q;
-    pair_open_d = pair_open_q;
-    pair_left_d = pair_left_q;
-    active      = bit_q < 4'(CharBits);
-    // Every comparison and sum below reads registers and configuration only: one adder deep.
-    ends        = rem_q <= inc_i;
-    off_grid    = rem_q > quarter_i && rem_q < three_quarters_i;
-    pair_runs   = pair_open_q && !edge_i;
-    pair_less   = {1'b0, pair_left_q} - {1'b0, inc_i};
-    total       = level_i ? lead_q : lag_q;
-    twice_rem   = {rem_q, 1'b0};
-    modulo_s    = {1'b0, modulo_i};
-    modulo_less_two_inc_s = {1'b0, modulo_less_two_inc_i};
-    if (start_i) begin
-      // The start edge's clock: the line low on it.
-      bit_d       = '0;
-      rem_d       = modulo_less_inc_i;
-      lead_d      = modulo_less_two_inc_s;
-      lag_d       = -modulo_s;
-      shift_d     = '0;
-      tie_d       = 1'b0;
-      glitches_d  = '0;
-      pair_open_d = 1'b0;
-      pair_left_d = '0;
-    end else if (active && step_i) begin
-      if (edge_i) begin
-        if (!off_grid || pair_open_q) begin
-          // On the grid, or the second edge of a glitch inside a bit.
-          pair_open_d = 1'b0;
-          pair_left_d = '0;
-        end else begin
-          glitches_d  = glitches_q == 2'(GlitchesMax) ? glitches_q : glitches_q + 2'd1;
-          pair_open_d = 1'b1;
-          pair_left_d = half_less_inc_i;
-        end
-      end else if (pair_runs) begin
-        if (!pair_less[PhaseWidth]) begin
-          pair_left_d = pair_less[PhaseWidth-1:0];
-        end else begin
-          pair_open_d = 1'b0;
-          pair_left_d = '0;
-        end
-      end
-      if (!ends) begin
-        // Both always summed (a zero added to the one that stays): a register kept only on
-        // some branches becomes a clock enable behind the comparison, a slower path.
-        rem_d  = rem_q - inc_i;
-        lead_d = lead_q - (level_i ? '0 : two_inc_i);
-        lag_d  = lag_q + (level_i ? two_inc_i : '0);
-      end else begin
-        // The bit is the sign of its balance; the units past its end open the next one.
-        bit_d   = bit_q + 4'd1;
-        shift_d = {!total[BalanceWidth-1] && total != '0, shift_q[10:1]};
-        tie_d   = tie_q || total == '0;
-        rem_d   = rem_q + modulo_less_inc_i;
-        if (level_i) begin
-          lead_d = modulo_s;
-          lag_d  = -modulo_less_two_inc_s - twice_rem;
-        end else begin
-          lead_d = modulo_less_two_inc_s + twice_rem;
-          lag_d  = -modulo_s;
-        end
-      end
-    end
-  end
+  char_reader_step #(.PhaseWidth(PhaseWidth)) u_step (
+    .inc_i, .modulo_i, .quarter_i, .three_quarters_i, .half_less_inc_i, .two_inc_i,
+    .modulo_less_inc_i, .modulo_less_two_inc_i, .step_i, .start_i, .level_i, .edge_i,
+    .state_i(state_q),
+    .state_o(state_d)
+  );
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
-    if (!rst_ni) begin
-      bit_q       <= 4'(CharBits);
-      rem_q       <= '0;
-      lead_q      <= '0;
-      lag_q       <= '0;
-      shift_q     <= '0;
-      tie_q       <= 1'b0;
-      glitches_q  <= '0;
-      pair_open_q <= 1'b0;
-      pair_left_q <= '0;
-    end else begin
-      bit_q       <= bit_d;
-      rem_q       <= rem_d;
-      lead_q      <= lead_d;
-      lag_q       <= lag_d;
-      shift_q     <= shift_d;
-      tie_q       <= tie_d;
-      glitches_q  <= glitches_d;
-      pair_open_q <= pair_open_d;
-      pair_left_q <= pair_left_d;
-    end
+    if (!rst_ni) state_q <= Reset;
+    else state_q <= state_d;
   end
 
-  assign bit_o       = bit_q;
-  assign shift_o     = shift_q;
-  assign tie_o       = tie_q;
-  assign glitches_o  = glitches_q;
-  assign glitches_next_o = glitches_d;
-  assign pair_open_o = pair_open_q;
-  assign rem_o       = rem_q;
-  assign lead_o      = lead_q;
-  assign lag_o       = lag_q;
-  assign pair_left_o = pair_left_q;
+  assign {bit_o, rem_o, lead_o, lag_o, shift_o, tie_o, glitches_o, pair_open_o, pair_left_o} =
+      state_q;
+  // The glitches field of the state to come: above pair_open and pair_left.
+  assign glitches_next_o = state_d[PhaseWidth + 1 +: 2];
 endmodule

@@ -422,7 +422,7 @@ pub fn run(args: &[String]) -> Result<()> {
     // it costs; its files are apart (`sweep-oversampled*`).
     let oversampled = args.iter().any(|a| a == "--oversampled");
     let cfg = Config {
-        search_periods: if oversampled {
+        search_schedule: if oversampled {
             dp_phy::autobaud::OVERSAMPLED
         } else {
             dp_phy::autobaud::EVERY_CLOCK

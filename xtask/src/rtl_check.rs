@@ -1,5 +1,6 @@
-//! `cargo xtask rtl-check [--quick]`: the gateware's blocks against their Rust twins in dp-phy,
-//! clock for clock (crates/rtl-check).
+//! `cargo xtask rtl-check [--quick] [--only BUILD]`: the gateware's blocks against their Rust
+//! twins in dp-phy, clock for clock (crates/rtl-check); `--only` runs the builds whose name
+//! holds BUILD (`autobaud-Oversampled1`, `char_reader`), for work on one block.
 //!
 //! First it proves that it can fail: the transmitter built one clock late (`LateByOne`) must
 //! differ from the model at the first start bit's clock, on `tx`. Then every block ported so far
@@ -9,15 +10,16 @@
 //! compared delivery by delivery. Installs verilator through apt-get as root
 //! where it is missing. The last line: `rtl-check: cases=N clocks=M mismatches=K`.
 
-use crate::{check_flags, project_root, qemu_test::ensure_debian_tool};
+use crate::{check_flags, flag_value, project_root, qemu_test::ensure_debian_tool};
 use anyhow::{bail, Context, Result};
 use dp_consts::Baud;
 use rtl_check::{blocks, first_event_mismatch, first_mismatch, verilator, write_vcd, Block, Case};
 use std::path::Path;
 
 pub fn run(args: &[String]) -> Result<()> {
-    check_flags(args, &["--quick"], &[])?;
+    check_flags(args, &["--quick"], &["--only"])?;
     let quick = args.iter().any(|a| a == "--quick");
+    let only = flag_value(args, "--only")?;
     ensure_debian_tool("verilator", "verilator")?;
     let root = project_root();
     let gateware = root.join("gateware");
@@ -76,6 +78,12 @@ pub fn run(args: &[String]) -> Result<()> {
                 blocks::char_reader(width),
                 blocks::char_reader_cases(&[baud], width, quick),
             ));
+        }
+    }
+    if let Some(only) = only {
+        runs.retain(|(block, _)| block.build_name().contains(only));
+        if runs.is_empty() {
+            bail!("no build's name holds `{only}`");
         }
     }
     let (mut cases, mut clocks, mut mismatches) = (0usize, 0u64, 0usize);

@@ -37,10 +37,11 @@
 //! show while a rate is known ([`AutoBaud::quiet_for`], [`AutoBaud::retire`]).
 //!
 //! A channel may sample the line every few clocks instead of every clock
-//! ([`AutoBaud::sampled`], [`OVERSAMPLED`]: 16 to 20 samples a bit, as a UART oversamples): it
-//! then sees a change of the line at its next sample, or not at all if the line is back before
-//! it, and counts its figures in samples, which makes its registers narrow in the FPGA. Fast
-//! mode stops at each such sample. [`AutoBaud::new`] samples every clock, as the RTL does.
+//! ([`AutoBaud::sampled`] on a [`Schedule`]; [`OVERSAMPLED`]: 16 to 21 samples a bit, as a UART
+//! oversamples, the six slowest channels taking turns in one datapath): it then sees a change
+//! of the line at its next sample, or not at all if the line is back before it, and counts its
+//! figures in samples, which makes its registers narrow in the FPGA. Fast mode stops at each
+//! such sample. [`AutoBaud::new`] samples every clock.
 //!
 //! A detection is only a candidate: the lock is confirmed by the transceiver when the whole
 //! telegram arrives without error. Anything that fails a check is dropped and that rate's
@@ -178,15 +179,32 @@ struct RateWindow {
     stop_end: u64,
 }
 
-/// Clocks between a channel's samples of the line: every clock for each rate
-/// ([`AutoBaud::new`]).
-pub const EVERY_CLOCK: [u64; RATES] = [1; RATES];
+/// When each channel samples the line: the channel of rate `r` at the ticks `t` with
+/// `t % period[r] == phase[r]` (a period of 1: every clock).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Schedule {
+    pub period: [u64; RATES],
+    pub phase: [u64; RATES],
+}
 
-/// Clocks between samples that give each rate up to 1.5 Mbit/s 16 to 20 samples a bit at
-/// 48 MHz (9.6k 20, 19.2k 20, 45.45k 16.0, 93.75k-1.5M 16), and the three fastest every
-/// clock (16, 8 and 4 a bit): the search as an FPGA would oversample it, narrow registers
-/// in place of the clock-exact ones ([`AutoBaud::sampled`]; README "Gateware").
-pub const OVERSAMPLED: [u64; RATES] = [250, 125, 66, 32, 16, 6, 2, 1, 1, 1];
+/// Every channel samples every clock ([`AutoBaud::new`]).
+pub const EVERY_CLOCK: Schedule = Schedule {
+    period: [1; RATES],
+    phase: [0; RATES],
+};
+
+/// Clocks of the frame in which the six slowest channels take turns ([`OVERSAMPLED`]).
+pub const SHARED_SLOTS: u64 = 6;
+
+/// The search as an FPGA builds it (README "Gateware"): the six channels up to 500 kbit/s take
+/// turns in one datapath, one a clock in a frame of [`SHARED_SLOTS`] (the channel of rate `r`
+/// in slot `r`, every few frames), with 16 to 21 samples a bit at 48 MHz (9.6k and 19.2k 20.8,
+/// 45.45k 16, 93.75k and 187.5k 21.3, 500k 16); 1.5M samples every other clock (16 a bit) and
+/// the three fastest every clock (16, 8 and 4 a bit), each in hardware of its own.
+pub const OVERSAMPLED: Schedule = Schedule {
+    period: [240, 120, 66, 24, 12, 6, 2, 1, 1, 1],
+    phase: [0, 1, 2, 3, 4, 5, 0, 0, 0, 0],
+};
 
 /// One channel's fixed figures, as the RTL takes them as parameters
 /// (gateware/rtl/autobaud_channels.svh).
@@ -200,8 +218,9 @@ pub struct ChannelFigures {
     /// A fall fewer samples (clocks, sampling every clock) than this after the start edge is
     /// inside the start bit.
     pub start_bit_clocks: Tick,
-    /// Clocks between the channel's samples of the line.
+    /// Clocks between the channel's samples of the line, and the first of them.
     pub period: Tick,
+    pub phase: Tick,
 }
 
 /// The search block's fixed configuration.
@@ -216,6 +235,8 @@ pub struct AutoBaud {
     tsyn: [Tick; RATES],
     /// Each rate's character reader.
     readers: [CharReader; RATES],
+    /// Each channel's first sample tick.
+    phase: [Tick; RATES],
     /// Every channel samples every clock: no change waits for a sample.
     every_clock: bool,
 }
@@ -226,17 +247,30 @@ impl AutoBaud {
         Self::sampled(clock_hz, EVERY_CLOCK)
     }
 
-    /// The search with the channel of rate `r` sampling the line every `periods[r]` clocks
-    /// (at the ticks that are multiples of it): it sees a change at its next sample, or not
-    /// at all if the line is back before it, and its figures (glitch, TSYN, the stop bit's
-    /// middle and end) are whole samples.
-    pub fn sampled(clock_hz: u32, periods: [u64; RATES]) -> Self {
+    /// The search with the channel of rate `r` sampling the line on `schedule`'s ticks for
+    /// it: it sees a change at its next sample, or not at all if the line is back before it,
+    /// and its figures (glitch, TSYN, the stop bit's middle and end) are whole samples.
+    pub fn sampled(clock_hz: u32, schedule: Schedule) -> Self {
+        let periods = schedule.period;
+        for r in 0..RATES {
+            assert!(
+                schedule.phase[r] < periods[r].max(1),
+                "a channel's phase is one of its period's clocks"
+            );
+        }
         let timings: [crate::BitTiming; RATES] = core::array::from_fn(|r| {
             let t = crate::BitTiming::new(clock_hz, Baud::ALL[r], 0);
-            // One sample: `period` clocks of phase.
+            if periods[r] <= 1 {
+                return t;
+            }
+            // A sampled channel times its bit in whole clocks, as a divider of the sample
+            // clock does: at 48 MHz every rate's bit is whole but 45.45k's, which becomes
+            // 1,056 clocks (45,454.5 bit/s, 100 ppm off), 16 samples of 66 clocks exactly
+            // instead of a fraction that would need 18-bit phase registers. One sample:
+            // `period` clocks of phase.
             crate::BitTiming {
-                inc: t.inc * periods[r],
-                modulo: t.modulo,
+                inc: periods[r],
+                modulo: (t.modulo + t.inc / 2) / t.inc,
             }
         });
         let p = |r: usize| periods[r].max(1);
@@ -258,6 +292,7 @@ impl AutoBaud {
                 p(r) * timings[r].clocks_for(2 * TSYN_BITS as u64 - 1, 2)
             }),
             readers: timings.map(CharReader::new),
+            phase: schedule.phase,
             every_clock: periods.iter().all(|&p| p <= 1),
         }
     }
@@ -275,6 +310,7 @@ impl AutoBaud {
             // `at * inc < modulo` for a whole `at` of samples.
             start_bit_clocks: w.modulo.div_ceil(w.inc),
             period: w.period,
+            phase: self.phase[r],
         }
     }
 
@@ -391,7 +427,9 @@ impl AutoBaud {
             let at = if period == 1 {
                 now
             } else {
-                now.next_multiple_of(period)
+                // The first tick from `now` on that is `phase` past a multiple of `period`.
+                let phase = self.phase[r];
+                (now + period - phase).next_multiple_of(period) - period + phase
             };
             if at == now {
                 changed |= self.sample_edge(r, now, level, q);
@@ -525,7 +563,7 @@ impl AutoBaud {
     ) -> Result<Detection, Reject> {
         self.read_to(r, c, now, level);
         // The stop bit is under way or over for every candidate (the last one's middle, or
-        // its end, is now): the RTL reads only those two cases (autobaud_channel.v `judge`).
+        // its end, is now): the RTL reads only those two cases (autobaud_channel_step.v `judge`).
         debug_assert!(c.readers[0].bit >= 10 && (c.alt == 0 || c.readers[1].bit >= 10));
         let reader = &self.readers[r];
         let from_start = delimiter_read(reader.read(&c.readers[0], level));

@@ -66,10 +66,10 @@ pub struct Config {
     pub baud_watchdog_10ms: u32,
     /// Idle bit times allowed between the characters of one telegram before it is a gap.
     pub max_gap_bits: u32,
-    /// Clocks between each rate's samples of the line in the search
+    /// When each rate's channel of the search samples the line
     /// ([`crate::autobaud::EVERY_CLOCK`], or [`crate::autobaud::OVERSAMPLED`] to try the
     /// oversampled search: `cargo xtask baud-sweep --oversampled`).
-    pub search_periods: [u64; 10],
+    pub search_schedule: crate::autobaud::Schedule,
 }
 
 impl Default for Config {
@@ -78,7 +78,7 @@ impl Default for Config {
             clock_hz: crate::timing::DEFAULT_CLOCK_HZ,
             baud_watchdog_10ms: 20,
             max_gap_bits: 1,
-            search_periods: crate::autobaud::EVERY_CLOCK,
+            search_schedule: crate::autobaud::EVERY_CLOCK,
         }
     }
 }
@@ -173,7 +173,7 @@ impl Transceiver {
             cfg,
             now: 0,
             state: BaudState::Searching,
-            search: AutoBaud::sampled(cfg.clock_hz, cfg.search_periods),
+            search: AutoBaud::sampled(cfg.clock_hz, cfg.search_schedule),
             rx: None,
             tx: None,
             delimiter: Delimiter::new(0, 0),

@@ -24,7 +24,7 @@ fn bench_with(cfg: Config, baud: Baud, ppm: i32) -> Testbench {
 /// The transceiver with the search sampling the slower rates 16-20 times a bit.
 fn oversampled() -> Config {
     Config {
-        search_periods: dp_phy::autobaud::OVERSAMPLED,
+        search_schedule: dp_phy::autobaud::OVERSAMPLED,
         ..Config::default()
     }
 }

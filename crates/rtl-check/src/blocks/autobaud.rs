@@ -12,7 +12,9 @@
 use super::bits_for;
 use crate::{Block, Case, Event, Trace};
 use dp_consts::Baud;
-use dp_phy::autobaud::{AutoBaud, AutoBaudQ, Reject, AUTOBAUD_RESET};
+use dp_phy::autobaud::{
+    AutoBaud, AutoBaudQ, ChannelFigures, Reject, Schedule, AUTOBAUD_RESET, SHARED_SLOTS,
+};
 use dp_phy::bus::FaultInjector;
 use dp_phy::filter::{self, FilterOut, FilterQ, FILTER_RESET};
 use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Testbench};
@@ -27,7 +29,13 @@ use std::fmt::Write as _;
 pub fn autobaud(oversampled: bool) -> Block {
     Block {
         top: "autobaud",
-        rtl: &["autobaud.v", "autobaud_channel.v", "char_reader.v"],
+        rtl: &[
+            "autobaud.v",
+            "autobaud_shared.v",
+            "autobaud_channel.v",
+            "autobaud_channel_step.v",
+            "char_reader_step.v",
+        ],
         signals: &["valid", "detect", "measuring"],
         params: vec![("Oversampled", i64::from(oversampled))],
         twin: "dp_phy::autobaud::AutoBaud",
@@ -35,8 +43,8 @@ pub fn autobaud(oversampled: bool) -> Block {
     }
 }
 
-/// The clocks between each channel's samples in the build with `Oversampled` set or not.
-pub fn periods(oversampled: bool) -> [u64; 10] {
+/// When each channel samples the line in the build with `Oversampled` set or not.
+pub fn schedule(oversampled: bool) -> Schedule {
     if oversampled {
         dp_phy::autobaud::OVERSAMPLED
     } else {
@@ -44,17 +52,57 @@ pub fn periods(oversampled: bool) -> [u64; 10] {
     }
 }
 
+/// A channel's figures in its samples, as the RTL takes them.
+struct SampleFigures {
+    glitch: u64,
+    tsyn: u64,
+    stop_middle: u64,
+    stop_end: u64,
+}
+
+fn sample_figures(f: &ChannelFigures) -> SampleFigures {
+    // The model's figures are clocks, whole samples each.
+    SampleFigures {
+        glitch: f.glitch / f.period,
+        tsyn: f.tsyn / f.period,
+        stop_middle: f.stop_middle / f.period,
+        stop_end: f.stop_end / f.period,
+    }
+}
+
+/// The registers' widths a channel needs: phase, idle line, pending edge, measurement, second
+/// start.
+fn widths(f: &ChannelFigures) -> [u32; 5] {
+    let n = sample_figures(f);
+    [
+        bits_for(f.reader.modulo),
+        bits_for(n.tsyn),
+        bits_for(n.glitch + 1),
+        bits_for(f.start_bit_clocks + n.stop_end),
+        bits_for(f.start_bit_clocks),
+    ]
+}
+
+/// Whether the channel of rate `r` takes its turn in autobaud_shared.v: its period is a whole
+/// number of the shared frame's clocks.
+fn is_shared(schedule: &Schedule, r: usize) -> bool {
+    let period = schedule.period[r];
+    period > 1 && period % SHARED_SLOTS == 0
+}
+
+const SVH_HEADER: &str = "// Written by crates/rtl-check (`blocks::autobaud`) from\n\
+    // dp_phy::autobaud::AutoBaud::channel_figures at 48 MHz, every figure in the channel's\n\
+    // samples. A test holds this file equal to the model's figures; do not edit.\n";
+
 /// The channels' instances with the model's figures (`gateware/rtl/autobaud_channels.svh`):
-/// one set sampling every clock, one oversampling, chosen by autobaud.v's `Oversampled`.
+/// one set sampling every clock, one oversampling (the six slowest in autobaud_shared.v),
+/// chosen by autobaud.v's `Oversampled`.
 pub fn channels_svh() -> String {
-    let mut s = String::from(
-        "// Written by crates/rtl-check (`blocks::autobaud::channels_svh`) from\n\
-         // dp_phy::autobaud::AutoBaud::channel_figures at 48 MHz: one channel per rate, 9.6k\n\
-         // first, every figure in the channel's samples. A test holds this file equal to the\n\
-         // model's figures; do not edit.\n",
-    );
+    let mut s = String::from(SVH_HEADER);
+    s.push_str("// One channel per rate, 9.6k first.\n");
     for oversampled in [true, false] {
-        let search = AutoBaud::sampled(DEFAULT_CLOCK_HZ, periods(oversampled));
+        let schedule = schedule(oversampled);
+        let search = AutoBaud::sampled(DEFAULT_CLOCK_HZ, schedule);
         let _ = write!(
             s,
             "\n  {}begin : g_{}\n",
@@ -69,24 +117,28 @@ pub fn channels_svh() -> String {
                 "every_clock"
             }
         );
+        let shared: Vec<usize> = (0..Baud::ALL.len())
+            .filter(|&r| is_shared(&schedule, r))
+            .collect();
+        if !shared.is_empty() {
+            s.push_str(&shared_instance(&search, &schedule, &shared));
+        }
         for (r, baud) in Baud::ALL.iter().enumerate() {
+            if shared.contains(&r) {
+                continue;
+            }
             let f = search.channel_figures(*baud);
             let c = f.reader;
-            // The model's figures are clocks, whole samples each.
-            let (glitch, tsyn, stop_middle, stop_end) = (
-                f.glitch / f.period,
-                f.tsyn / f.period,
-                f.stop_middle / f.period,
-                f.stop_end / f.period,
-            );
+            let n = sample_figures(&f);
+            let [phase_w, idle_w, pend_w, time_w, alt_w] = widths(&f);
             let _ = write!(
                 s,
-                "\n    // {baud}, a sample every {} clock(s)\n    autobaud_channel #(\n      \
-                 .PhaseWidth({}), .Inc({}), .Modulo({}), .Quarter({}), .ThreeQuarters({}),\n      \
+                "\n    // {baud}, a sample every {} clock(s) from tick {}\n    autobaud_channel #(\n      \
+                 .PhaseWidth({phase_w}), .Inc({}), .Modulo({}), .Quarter({}), .ThreeQuarters({}),\n      \
                  .HalfLessInc({}), .TwoInc({}), .ModuloLessInc({}), .ModuloLessTwoInc({}),\n      \
-                 .Glitch({glitch}), .Tsyn({tsyn}), .StopMiddle({stop_middle}), .StopEnd({stop_end}),\n      \
-                 .StartBitClocks({}), .Period({}),\n      \
-                 .IdleWidth({}), .PendWidth({}), .TimeWidth({}), .AltWidth({}),\n      \
+                 .Glitch({}), .Tsyn({}), .StopMiddle({}), .StopEnd({}),\n      \
+                 .StartBitClocks({}), .Period({}), .Phase({}),\n      \
+                 .IdleWidth({idle_w}), .PendWidth({pend_w}), .TimeWidth({time_w}), .AltWidth({alt_w}),\n      \
                  .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)\n    \
                  ) u_channel_{r} (\n      \
                  .clk_i, .rst_ni, .level_i,\n      \
@@ -95,7 +147,7 @@ pub fn channels_svh() -> String {
                  .byte_o(bytes[{r} * 8 +: 8]), .since_t0_o(since_t0[{r} * TimeWidth +: TimeWidth]),\n      \
                  .offset_o(offset[{r} * AltWidth +: AltWidth]), .measuring_o(measuring_o[{r}])\n    );\n",
                 f.period,
-                bits_for(c.modulo),
+                f.phase,
                 c.inc,
                 c.modulo,
                 c.quarter,
@@ -104,15 +156,115 @@ pub fn channels_svh() -> String {
                 c.two_inc,
                 c.modulo_less_inc,
                 c.modulo_less_two_inc,
+                n.glitch,
+                n.tsyn,
+                n.stop_middle,
+                n.stop_end,
                 f.start_bit_clocks,
                 f.period,
-                bits_for(tsyn),
-                bits_for(glitch + 1),
-                bits_for(f.start_bit_clocks + stop_end),
-                bits_for(f.start_bit_clocks),
+                f.phase,
             );
         }
         s.push_str("  end\n");
+    }
+    s
+}
+
+/// autobaud_shared.v's instance for the channels `shared` (rates 0.. in order, each in the
+/// slot of its index), at the widest of their widths, its decision fanned out to theirs.
+fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> String {
+    let slots = SHARED_SLOTS as usize;
+    assert!(
+        shared
+            .iter()
+            .enumerate()
+            .all(|(i, &r)| i == r && schedule.phase[r] == r as u64)
+            && shared.len() == slots,
+        "the shared channels are the {slots} slowest rates, each in the slot of its index"
+    );
+    let mut w = [0u32; 5];
+    let mut frames = 0;
+    for &r in shared {
+        let f = search.channel_figures(Baud::ALL[r]);
+        for (m, x) in w.iter_mut().zip(widths(&f)) {
+            *m = (*m).max(x);
+        }
+        frames = frames.max(f.period / SHARED_SLOTS);
+    }
+    let [phase_w, idle_w, pend_w, time_w, alt_w] = w;
+    let last = slots - 1;
+    let mut s = format!(
+        "\n    // 9.6k to 500k, taking turns: slot s is the rate of index s (autobaud_slots.svh)\n    \
+         logic [1:0] shared_code;\n    logic [7:0] shared_byte;\n    \
+         logic [TimeWidth-1:0] shared_since;\n    logic [AltWidth-1:0] shared_offset;\n    \
+         autobaud_shared #(\n      \
+         .Slots({slots}), .PhaseWidth({phase_w}), .IdleWidth({idle_w}), .PendWidth({pend_w}),\n      \
+         .TimeWidth({time_w}), .AltWidth({alt_w}), .FrameWidth({}),\n      \
+         .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)\n    \
+         ) u_shared (\n      \
+         .clk_i, .rst_ni, .level_i,\n      \
+         .heard_i(heard[{last}:0]), .heard_any_i(heard_valid_i), .detect_o(detect[{last}:0]),\n      \
+         .reject_o(reject[{last}:0]), .reject_code_o(shared_code), .byte_o(shared_byte),\n      \
+         .since_t0_o(shared_since), .offset_o(shared_offset), .measuring_o(measuring_o[{last}:0])\n    );\n    \
+         for (genvar r = 0; r < {slots}; r++) begin : g_shared\n      \
+         assign reject_code[r * 2 +: 2] = shared_code;\n      \
+         assign bytes[r * 8 +: 8] = shared_byte;\n      \
+         assign since_t0[r * TimeWidth +: TimeWidth] = shared_since;\n      \
+         assign offset[r * AltWidth +: AltWidth] = shared_offset;\n    \
+         end\n",
+        bits_for(frames - 1).max(1),
+    );
+    s.push('\n');
+    s
+}
+
+/// The shared channels' figures (`gateware/rtl/autobaud_slots.svh`): autobaud_shared.v's
+/// table, one case item a slot, in the oversampled build's channels.
+pub fn slots_svh() -> String {
+    let schedule = schedule(true);
+    let search = AutoBaud::sampled(DEFAULT_CLOCK_HZ, schedule);
+    let mut s = String::from(SVH_HEADER);
+    s.push_str(
+        "// autobaud_shared.v's table: the figures of the channel in turn, at its widths (P phase,\n\
+         // G pending edge, I idle line, T measurement, F frames).\n",
+    );
+    for r in (0..Baud::ALL.len()).filter(|&r| is_shared(&schedule, r)) {
+        let baud = Baud::ALL[r];
+        let f = search.channel_figures(baud);
+        let c = f.reader;
+        let n = sample_figures(&f);
+        // The line's last edge is taken as at tick 0: the channel's first sample is within a
+        // glitch of it, and the Glitch-th past tick 0 is the last that is.
+        let edge_reset = if f.phase == 0 { n.glitch + 1 } else { n.glitch };
+        let _ = write!(
+            s,
+            "      // {baud}: a sample every {} clocks from tick {}\n      \
+             {r}: begin\n        \
+             inc = P'({}); modulo = P'({}); quarter = P'({}); three_quarters = P'({});\n        \
+             half_less_inc = P'({}); two_inc = (P + 1)'({});\n        \
+             modulo_less_inc = P'({}); modulo_less_two_inc = P'({});\n        \
+             glitch = G'({}); edge_reset = G'({edge_reset}); tsyn = I'({}); tsyn_less_one = I'({});\n        \
+             to_middle = T'({}); middle_to_end = T'({}); start_bit = T'({});\n        \
+             frames_less_one = F'({});\n      \
+             end\n",
+            f.period,
+            f.phase,
+            c.inc,
+            c.modulo,
+            c.quarter,
+            c.three_quarters,
+            c.half_less_inc,
+            c.two_inc,
+            c.modulo_less_inc,
+            c.modulo_less_two_inc,
+            n.glitch,
+            n.tsyn,
+            n.tsyn - 1,
+            n.stop_middle - 1,
+            n.stop_end - n.stop_middle - 1,
+            f.start_bit_clocks,
+            f.period / SHARED_SLOTS - 1,
+        );
     }
     s
 }
@@ -129,7 +281,7 @@ fn reject_code(reject: Reject) -> u8 {
 /// transceiver's synchroniser) and the rate heard.
 struct SearchCase {
     search: AutoBaud,
-    periods: [u64; 10],
+    schedule: Schedule,
     q: AutoBaudQ,
     sync: FilterQ,
     now: u64,
@@ -143,8 +295,8 @@ struct SearchCase {
 impl SearchCase {
     fn new(oversampled: bool) -> SearchCase {
         SearchCase {
-            search: AutoBaud::sampled(DEFAULT_CLOCK_HZ, periods(oversampled)),
-            periods: periods(oversampled),
+            search: AutoBaud::sampled(DEFAULT_CLOCK_HZ, schedule(oversampled)),
+            schedule: schedule(oversampled),
             q: AUTOBAUD_RESET,
             sync: FILTER_RESET,
             now: 0,
@@ -189,7 +341,7 @@ impl SearchCase {
                 value |= 0b11;
                 payload.extend([1, d.baud.index() as u8, d.byte]);
                 // In the detecting channel's samples, as the RTL counts.
-                let age = (self.now - d.start) / self.periods[d.baud.index()];
+                let age = (self.now - d.start) / self.schedule.period[d.baud.index()];
                 payload.extend((age as u32).to_le_bytes());
             }
             Some(Err(e)) => {
@@ -248,7 +400,7 @@ fn master_case(
     let target = BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm);
     let first = from.map_or(target, |f| BitTiming::new(DEFAULT_CLOCK_HZ, f, -ppm));
     let cfg = Config {
-        search_periods: periods(oversampled),
+        search_schedule: schedule(oversampled),
         ..Config::default()
     };
     let mut tb = Testbench::new(cfg, first, FaultInjector::none());
@@ -363,20 +515,25 @@ mod tests {
     use super::*;
 
     /// The channels' figures in the gateware are the model's. After a change of the model's
-    /// figures, `RTL_CHECK_WRITE_SVH=1 cargo test -p rtl-check` writes the file anew.
+    /// figures, `RTL_CHECK_WRITE_SVH=1 cargo test -p rtl-check` writes the files anew.
     #[test]
     fn the_gateware_channels_have_the_models_figures() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../gateware/rtl/autobaud_channels.svh");
-        let want = channels_svh();
-        if std::env::var_os("RTL_CHECK_WRITE_SVH").is_some() {
-            std::fs::write(&path, &want).expect("writing the channels");
+        for (file, want) in [
+            ("autobaud_channels.svh", channels_svh()),
+            ("autobaud_slots.svh", slots_svh()),
+        ] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../gateware/rtl")
+                .join(file);
+            if std::env::var_os("RTL_CHECK_WRITE_SVH").is_some() {
+                std::fs::write(&path, &want).expect("writing the channels");
+            }
+            let have = std::fs::read_to_string(&path).expect(file);
+            assert!(
+                have == want,
+                "gateware/rtl/{file} is not the model's: \
+                 RTL_CHECK_WRITE_SVH=1 cargo test -p rtl-check writes it"
+            );
         }
-        let have = std::fs::read_to_string(&path).expect("gateware/rtl/autobaud_channels.svh");
-        assert!(
-            have == want,
-            "gateware/rtl/autobaud_channels.svh is not the model's: \
-             RTL_CHECK_WRITE_SVH=1 cargo test -p rtl-check writes it"
-        );
     }
 }

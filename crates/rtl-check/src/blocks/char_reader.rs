@@ -17,7 +17,7 @@ use rand_chacha::ChaCha8Rng;
 pub fn char_reader(width: u32) -> Block {
     Block {
         top: "char_reader",
-        rtl: &["char_reader.v"],
+        rtl: &["char_reader.v", "char_reader_step.v"],
         signals: &[
             "bit0",
             "bit1",

@@ -1,0 +1,266 @@
+// One sample of one rate's channel of the baud-rate search: the logic of autobaud_channel.v
+// without its registers (a ChannelQ of dp_phy::autobaud::AutoBaud with the rate's idle line).
+// The channel's registers come in packed (state_i) and go out as they become at this clock's
+// edge (state_o); its figures come in as inputs. autobaud_channel.v keeps one channel's
+// registers in flip-flops with its figures fixed; autobaud_shared.v keeps six channels' in
+// block RAM and serves them in turn through one step, their figures from a table.
+//
+// What the registers count is in autobaud_channel.v. The packed state, most significant first:
+// held, edge_left (PendWidth), cancel_left (PendWidth), high_left and before_left (IdleWidth
+// each), measuring, since_t0 and decide_in (TimeWidth each), n_edges (5), alt (AltWidth),
+// deferred, then the second candidate's reader and the start's (char_reader_step.v's state
+// each).
+//
+// sample_i: this clock is one of the channel's samples of the line; between them only the
+// readers' step enable is low and nothing else moves, so a caller that steps the channel on its
+// samples alone may leave state_o unwritten at the others.
+`default_nettype none
+
+module autobaud_channel_step #(
+  parameter int PhaseWidth    = 13,
+  parameter int IdleWidth     = 18,
+  parameter int PendWidth     = 12,
+  parameter int TimeWidth     = 16,
+  parameter int AltWidth      = 13,
+  parameter int StartAgeWidth = 16,
+  parameter int AltOutWidth   = 13,
+  // Derived; not to be set.
+  parameter int ReaderWidth   = 4 * PhaseWidth + 21,
+  parameter int StateWidth    = 2 * PendWidth + 2 * IdleWidth + 2 * TimeWidth + AltWidth + 8
+                                + 2 * ReaderWidth
+) (
+  // The rate's reader figures (CharReader::new, reduced).
+  input  wire [PhaseWidth-1:0] inc_i,
+  input  wire [PhaseWidth-1:0] modulo_i,
+  input  wire [PhaseWidth-1:0] quarter_i,
+  input  wire [PhaseWidth-1:0] three_quarters_i,
+  input  wire [PhaseWidth-1:0] half_less_inc_i,
+  input  wire [PhaseWidth:0]   two_inc_i,
+  input  wire [PhaseWidth-1:0] modulo_less_inc_i,
+  input  wire [PhaseWidth-1:0] modulo_less_two_inc_i,
+  // The rate's search figures, in samples: a glitch, TSYN less one, the stop bit's middle
+  // less one, its end less its middle less one, a start bit.
+  input  wire [PendWidth-1:0]  glitch_i,
+  input  wire [IdleWidth-1:0]  tsyn_less_one_i,
+  input  wire [TimeWidth-1:0]  to_middle_i,
+  input  wire [TimeWidth-1:0]  middle_to_end_i,
+  input  wire [TimeWidth-1:0]  start_bit_i,
+  input  wire                  sample_i,
+  input  wire                  level_i,
+  // The receiver is on this rate; on any rate.
+  input  wire                  heard_i,
+  input  wire                  heard_any_i,
+  input  wire [StateWidth-1:0] state_i,
+  output logic [StateWidth-1:0] state_o,
+  output wire                  detect_o,
+  output wire                  reject_o,
+  // Reject: 0 off the grid, 1 no character, 2 no delimiter.
+  output wire [1:0]            reject_code_o,
+  output wire [7:0]            byte_o,
+  // Samples since the detected character's start edge, and the second start's offset.
+  output wire [StartAgeWidth-1:0] since_t0_o,
+  output wire [AltOutWidth-1:0]   offset_o
+);
+  localparam int MaxEdges = 16;
+  localparam int BalanceWidth = PhaseWidth + 1;
+
+  logic                 held_q, held_d;
+  logic [PendWidth-1:0] edge_left_q, edge_left_d;
+  logic [PendWidth-1:0] cancel_left_q, cancel_left_d;
+  logic [IdleWidth-1:0] high_left_q, high_left_d;
+  logic [IdleWidth-1:0] before_left_q, before_left_d;
+  logic                 measuring_q, measuring_d;
+  logic [TimeWidth-1:0] since_t0_q, since_t0_d;
+  logic [TimeWidth-1:0] decide_in_q, decide_in_d;
+  logic [4:0]           n_edges_q, n_edges_d;
+  logic [AltWidth-1:0]  alt_q, alt_d;
+  logic                 deferred_q, deferred_d;
+  logic [ReaderWidth-1:0] reader0_q, reader0_d, reader1_q, reader1_d;
+
+  assign {held_q, edge_left_q, cancel_left_q, high_left_q, before_left_q, measuring_q,
+          since_t0_q, decide_in_q, n_edges_q, alt_q, deferred_q, reader1_q, reader0_q} = state_i;
+  assign state_o = {held_d, edge_left_d, cancel_left_d, high_left_d, before_left_d, measuring_d,
+                    since_t0_d, decide_in_d, n_edges_d, alt_d, deferred_d, reader1_d, reader0_d};
+
+  logic                 sample, fell, rose;
+  logic                 edge_now, cancels, after_glitch, starts, second, overflow, due;
+  logic [IdleWidth-1:0] high_next, before_next;
+  logic                 idle_long;
+
+  // What the decision reads of each reader: its registers with this clock's line lasting (the
+  // model clocks the reader through this clock first: the same bits, and this clock's edge
+  // counts in the glitches).
+  logic [3:0]              bit0, bit1;
+  logic [10:0]             shift0, shift1;
+  logic                    tie0, tie1;
+  logic [1:0]              glitches0, glitches1;
+  logic [BalanceWidth-1:0] lead0, lead1, lag0, lag1;
+  // The reader's state: bit, rem, lead, lag, shift, tie, glitches, pair_open, pair_left.
+  assign bit0      = reader0_q[ReaderWidth-1 -: 4];
+  assign lead0     = reader0_q[ReaderWidth-5-PhaseWidth -: BalanceWidth];
+  assign lag0      = reader0_q[ReaderWidth-5-PhaseWidth-BalanceWidth -: BalanceWidth];
+  assign shift0    = reader0_q[PhaseWidth+14 -: 11];
+  assign tie0      = reader0_q[PhaseWidth+3];
+  assign glitches0 = reader0_d[PhaseWidth+1 +: 2];
+  assign bit1      = reader1_q[ReaderWidth-1 -: 4];
+  assign lead1     = reader1_q[ReaderWidth-5-PhaseWidth -: BalanceWidth];
+  assign lag1      = reader1_q[ReaderWidth-5-PhaseWidth-BalanceWidth -: BalanceWidth];
+  assign shift1    = reader1_q[PhaseWidth+14 -: 11];
+  assign tie1      = reader1_q[PhaseWidth+3];
+  assign glitches1 = reader1_d[PhaseWidth+1 +: 2];
+
+  function automatic logic [IdleWidth-1:0] idle_dec(input logic [IdleWidth-1:0] v);
+    idle_dec = v == '0 ? v : v - 1'b1;
+  endfunction
+
+  // A reading as dp_phy::autobaud::delimiter_read judges it: {ok, code, byte}. At a decision
+  // the stop bit is under way (bit_n 10: it is the sign of this clock's balance) or over
+  // (11): the model asserts it (AutoBaud::decide), and nothing else is built.
+  function automatic logic [10:0] judge(
+      input logic [3:0] bit_n, input logic [10:0] shift, input logic tie,
+      input logic [1:0] glitches, input logic [BalanceWidth-1:0] lead,
+      input logic [BalanceWidth-1:0] lag, input logic level);
+    logic [BalanceWidth-1:0] total;
+    logic [10:0] bits;
+    logic        over, tied;
+    logic [7:0]  data;
+    total = level ? lead : lag;
+    over  = bit_n == 4'd11;
+    bits  = over ? shift : {!total[BalanceWidth-1] && total != '0, shift[10:1]};
+    tied  = tie || (!over && total == '0);
+    data  = bits[8:1];
+    if (tied || glitches > 2'd1) judge = {1'b0, 2'd0, 8'd0};
+    else if (bits[0] || !bits[10] || bits[9] != ^data) judge = {1'b0, 2'd1, 8'd0};
+    else if (data != 8'h10 && data != 8'h68 && data != 8'hA2 && data != 8'hDC)
+      judge = {1'b0, 2'd2, 8'd0};
+    else judge = {1'b1, 2'd0, data};
+  endfunction
+
+  logic [10:0]          from_start, from_alt;
+  logic                 ok;
+  logic [1:0]           code;
+  logic [7:0]           data;
+  logic [AltWidth-1:0]  offset;
+
+  always_comb begin
+    sample        = sample_i;
+    held_d        = sample ? level_i : held_q;
+    fell          = sample && held_q && !level_i;
+    rose          = sample && !held_q && level_i;
+    edge_left_d   = edge_left_q == '0 || !sample ? edge_left_q : edge_left_q - 1'b1;
+    cancel_left_d = cancel_left_q == '0 || !sample ? cancel_left_q : cancel_left_q - 1'b1;
+    high_next     = sample ? idle_dec(high_left_q) : high_left_q;
+    before_next   = sample ? idle_dec(before_left_q) : before_left_q;
+    high_left_d   = high_next;
+    before_left_d = before_next;
+    measuring_d  = measuring_q;
+    since_t0_d   = sample ? since_t0_q + 1'b1 : since_t0_q;
+    decide_in_d  = sample ? decide_in_q - 1'b1 : decide_in_q;
+    n_edges_d    = n_edges_q;
+    alt_d        = alt_q;
+    deferred_d   = deferred_q;
+    edge_now     = fell || rose;
+    cancels      = cancel_left_q != '0;
+    idle_long    = high_left_q == '0;
+    after_glitch = edge_left_q != '0;
+    starts       = fell && !after_glitch && idle_long;
+    overflow     = !starts && measuring_q && edge_now && n_edges_q == 5'(MaxEdges);
+    second       = !starts && measuring_q && fell && !overflow && after_glitch
+                   && since_t0_q < start_bit_i;
+    due          = sample && measuring_q && !starts && !second && !overflow
+                   && decide_in_q == '0;
+    from_start   = judge(bit0, shift0, tie0, glitches0, lead0, lag0, level_i);
+    from_alt     = judge(bit1, shift1, tie1, glitches1, lead1, lag1, level_i);
+    ok           = 1'b0;
+    code         = 2'd0;
+    data         = 8'd0;
+    offset       = '0;
+
+    // The idle line, with the rate's glitches removed.
+    if (edge_now) begin
+      edge_left_d   = glitch_i;
+      cancel_left_d = cancels ? '0 : glitch_i;
+      if (rose && !cancels) begin
+        high_left_d   = tsyn_less_one_i;
+        before_left_d = high_next;
+      end else if (fell && cancels) begin
+        high_left_d   = before_next;
+        before_left_d = before_next;
+      end
+    end
+
+    // The measurement.
+    if (starts) begin
+      measuring_d = 1'b1;
+      since_t0_d  = TimeWidth'(1);
+      decide_in_d = to_middle_i;
+      n_edges_d   = '0;
+      alt_d       = '0;
+      deferred_d  = 1'b0;
+    end else if (overflow) begin
+      measuring_d = 1'b0;
+    end else if (measuring_q && edge_now) begin
+      n_edges_d = n_edges_q + 5'd1;
+      if (second) begin
+        alt_d       = AltWidth'(since_t0_q);
+        decide_in_d = to_middle_i;
+        deferred_d  = 1'b0;
+      end
+    end
+
+    // The decision: from the start, or from the second candidate too.
+    if (alt_q == '0) begin
+      {ok, code, data} = from_start;
+    end else if (from_start[10] && from_alt[10] && from_start[7:0] != from_alt[7:0]) begin
+      {ok, code, data} = {1'b0, 2'd0, 8'd0};
+    end else if (from_start[10]) begin
+      {ok, code, data} = from_start;
+    end else if (from_alt[10]) begin
+      {ok, code, data} = from_alt;
+      offset = alt_q;
+    end else begin
+      {ok, code, data} = from_start;
+    end
+    if (due) begin
+      if (!level_i && !deferred_q) begin
+        // Low at the stop bit's middle: the whole stop bit tells.
+        deferred_d  = 1'b1;
+        decide_in_d = middle_to_end_i;
+      end else begin
+        measuring_d = 1'b0;
+      end
+    end
+  end
+
+  logic decides;
+  assign decides       = due && (level_i || deferred_q) && !heard_i;
+  assign detect_o      = decides && ok;
+  assign reject_o      = decides && !ok && !heard_any_i;
+  assign reject_code_o = code;
+  assign byte_o        = data;
+  assign since_t0_o    = StartAgeWidth'(since_t0_q);
+  assign offset_o      = AltOutWidth'(offset);
+
+  // The readers: from the start edge, and from the second candidate start.
+  char_reader_step #(.PhaseWidth(PhaseWidth)) u_from_start (
+    .inc_i, .modulo_i, .quarter_i, .three_quarters_i, .half_less_inc_i, .two_inc_i,
+    .modulo_less_inc_i, .modulo_less_two_inc_i,
+    .step_i (sample),
+    .start_i(starts),
+    .level_i,
+    .edge_i (edge_now),
+    .state_i(reader0_q),
+    .state_o(reader0_d)
+  );
+
+  char_reader_step #(.PhaseWidth(PhaseWidth)) u_from_alt (
+    .inc_i, .modulo_i, .quarter_i, .three_quarters_i, .half_less_inc_i, .two_inc_i,
+    .modulo_less_inc_i, .modulo_less_two_inc_i,
+    .step_i (sample),
+    .start_i(second),
+    .level_i,
+    .edge_i (edge_now),
+    .state_i(reader1_q),
+    .state_o(reader1_d)
+  );
+endmodule

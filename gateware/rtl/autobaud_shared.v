@@ -1,0 +1,164 @@
+// The search's slower channels taking turns in one datapath: channel s (the rate of index s,
+// 9.6k first) is stepped on the clocks t with t % Slots == s, and samples the line on every
+// Frames[s]-th of them (dp_phy::autobaud::OVERSAMPLED: period Slots * Frames[s], phase s).
+// Each is then exactly an autobaud_channel with that period and phase, and the model's
+// AutoBaud::sampled on that schedule.
+//
+// The channels' registers live in block RAM, one word a channel (autobaud_channel_step.v's
+// packed state and the frames left before its next sample): the word of the channel whose turn
+// comes next is read one clock ahead (the RAM's read is registered), stepped on its clock and
+// written back at that clock's edge, while the next one is read. A channel whose word has not
+// been written since reset reads as its reset value instead (fresh_q), as block RAM cannot be
+// reset. The figures of the channel in turn come from a table written from the model
+// (autobaud_slots.svh, by crates/rtl-check).
+//
+// At most one channel decides on a clock: detect_o and reject_o are one-hot, and the decision's
+// byte, code and start age are that channel's. measuring_o keeps each channel's flag in
+// flip-flops, for the search's own use and for rtl-check.
+`default_nettype none
+
+module autobaud_shared #(
+  parameter int Slots         = 6,
+  // Widths: the widest of the channels' (their figures are zero-extended to these).
+  parameter int PhaseWidth    = 7,
+  parameter int IdleWidth     = 10,
+  parameter int PendWidth     = 4,
+  parameter int TimeWidth     = 8,
+  parameter int AltWidth      = 5,
+  parameter int FrameWidth    = 6,
+  parameter int StartAgeWidth = 16,
+  parameter int AltOutWidth   = 13
+) (
+  input  wire                     clk_i,
+  input  wire                     rst_ni,
+  input  wire                     level_i,
+  input  wire [Slots-1:0]         heard_i,
+  input  wire                     heard_any_i,
+  output wire [Slots-1:0]         detect_o,
+  output wire [Slots-1:0]         reject_o,
+  output wire [1:0]               reject_code_o,
+  output wire [7:0]               byte_o,
+  output wire [StartAgeWidth-1:0] since_t0_o,
+  output wire [AltOutWidth-1:0]   offset_o,
+  output wire [Slots-1:0]         measuring_o
+);
+  localparam int SlotWidth   = $clog2(Slots);
+  localparam int ReaderWidth = 4 * PhaseWidth + 21;
+  localparam int StateWidth  = 2 * PendWidth + 2 * IdleWidth + 2 * TimeWidth + AltWidth + 8
+                               + 2 * ReaderWidth;
+  localparam int WordWidth   = StateWidth + FrameWidth;
+  localparam logic [ReaderWidth-1:0] ReaderReset = {4'd11, (ReaderWidth - 4)'(0)};
+  // measuring's place in the packed state: below held and the idle line's registers.
+  localparam int MeasuringAt = StateWidth - 2 - 2 * PendWidth - 2 * IdleWidth;
+
+  // The channel in turn this clock, and whose word the RAM is reading for the next.
+  logic [SlotWidth-1:0] slot_q, slot_d;
+  logic [Slots-1:0]     fresh_q, fresh_d;
+  logic [Slots-1:0]     measuring_q, measuring_d;
+  (* ram_style = "block" *)
+  logic [WordWidth-1:0] words [Slots];
+  logic [WordWidth-1:0] word_q;
+
+  // The channel's figures (autobaud_slots.svh).
+  logic [PhaseWidth-1:0] inc, modulo, quarter, three_quarters, half_less_inc;
+  logic [PhaseWidth:0]   two_inc;
+  logic [PhaseWidth-1:0] modulo_less_inc, modulo_less_two_inc;
+  logic [PendWidth-1:0]  glitch, edge_reset;
+  logic [IdleWidth-1:0]  tsyn, tsyn_less_one;
+  logic [TimeWidth-1:0]  to_middle, middle_to_end, start_bit;
+  logic [FrameWidth-1:0] frames_less_one;
+
+  // The table's widths.
+  localparam int P = PhaseWidth;
+  localparam int G = PendWidth;
+  localparam int I = IdleWidth;
+  localparam int T = TimeWidth;
+  localparam int F = FrameWidth;
+
+  always_comb begin
+    inc = '0; modulo = '0; quarter = '0; three_quarters = '0; half_less_inc = '0;
+    two_inc = '0; modulo_less_inc = '0; modulo_less_two_inc = '0; glitch = '0;
+    edge_reset = '0; tsyn = '0; tsyn_less_one = '0; to_middle = '0; middle_to_end = '0;
+    start_bit = '0; frames_less_one = '0;
+    case (slot_q)
+`include "autobaud_slots.svh"
+      default: ;
+    endcase
+  end
+
+  logic [StateWidth-1:0] state, state_next, reset_state;
+  logic [FrameWidth-1:0] frames_left, frames_next;
+  logic                  sample, heard;
+  logic                  detect, reject;
+
+  assign reset_state = {1'b1, edge_reset, PendWidth'(0), tsyn, tsyn, 1'b0, TimeWidth'(0),
+                        TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset, ReaderReset};
+  assign {frames_left, state} = fresh_q[slot_q] ? {FrameWidth'(0), reset_state} : word_q;
+  assign sample      = frames_left == '0;
+  assign frames_next = sample ? frames_less_one : frames_left - 1'b1;
+  assign heard       = heard_i[slot_q];
+
+  always_comb begin
+    slot_d = slot_q == SlotWidth'(Slots - 1) ? '0 : slot_q + 1'b1;
+    fresh_d = fresh_q;
+    fresh_d[slot_q] = 1'b0;
+    measuring_d = measuring_q;
+    measuring_d[slot_q] = state_next[MeasuringAt];
+  end
+
+  autobaud_channel_step #(
+    .PhaseWidth(PhaseWidth), .IdleWidth(IdleWidth), .PendWidth(PendWidth),
+    .TimeWidth(TimeWidth), .AltWidth(AltWidth), .StartAgeWidth(StartAgeWidth),
+    .AltOutWidth(AltOutWidth)
+  ) u_step (
+    .inc_i                (inc),
+    .modulo_i             (modulo),
+    .quarter_i            (quarter),
+    .three_quarters_i     (three_quarters),
+    .half_less_inc_i      (half_less_inc),
+    .two_inc_i            (two_inc),
+    .modulo_less_inc_i    (modulo_less_inc),
+    .modulo_less_two_inc_i(modulo_less_two_inc),
+    .glitch_i             (glitch),
+    .tsyn_less_one_i      (tsyn_less_one),
+    .to_middle_i          (to_middle),
+    .middle_to_end_i      (middle_to_end),
+    .start_bit_i          (start_bit),
+    .sample_i             (sample),
+    .level_i,
+    .heard_i              (heard),
+    .heard_any_i,
+    .state_i              (state),
+    .state_o              (state_next),
+    .detect_o             (detect),
+    .reject_o             (reject),
+    .reject_code_o,
+    .byte_o,
+    .since_t0_o,
+    .offset_o
+  );
+
+  for (genvar s = 0; s < Slots; s++) begin : g_decisions
+    assign detect_o[s] = detect && slot_q == SlotWidth'(s);
+    assign reject_o[s] = reject && slot_q == SlotWidth'(s);
+  end
+  assign measuring_o = measuring_q;
+
+  // The RAM: written and read every clock, never at the same word.
+  always_ff @(posedge clk_i) begin
+    words[slot_q] <= {frames_next, state_next};
+    word_q <= words[slot_d];
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      slot_q      <= '0;
+      fresh_q     <= '1;
+      measuring_q <= '0;
+    end else begin
+      slot_q      <= slot_d;
+      fresh_q     <= fresh_d;
+      measuring_q <= measuring_d;
+    end
+  end
+endmodule

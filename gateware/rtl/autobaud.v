@@ -1,6 +1,8 @@
 // The baud-rate search: dp_phy::autobaud::AutoBaud's twin (crates/dp-phy/src/autobaud.rs),
-// one autobaud_channel per rate at that rate's constant figures (autobaud_channels.svh,
-// written from the model by crates/rtl-check), and what the model's clock() returns.
+// a channel per rate at that rate's constant figures (autobaud_channels.svh, written from the
+// model by crates/rtl-check): in the transceiver's build the six slowest take turns in
+// autobaud_shared.v and the four fastest are an autobaud_channel each; and what the model's
+// clock() returns.
 //
 // Each clock takes the synchronised line (level_i; each channel samples it and sees its changes)
 // and the rate the receiver is on (heard_valid_i, heard_i: an index into Baud::ALL, 9.6k
@@ -11,9 +13,10 @@
 `default_nettype none
 
 module autobaud #(
-  // 1: the channels up to 1.5 Mbit/s sample the line every few clocks (AutoBaud::sampled with
-  // OVERSAMPLED); 0: every channel samples every clock (AutoBaud::new, the model's default).
-  parameter int Oversampled = 0,
+  // 1: the transceiver's search, the channels up to 1.5 Mbit/s sampling the line every few
+  // clocks (AutoBaud::sampled with OVERSAMPLED, the model's default); 0: every channel samples
+  // every clock (AutoBaud::new, to compare).
+  parameter int Oversampled = 1,
   // The detections' start age and second-start offset, in the detecting channel's samples
   // (a 9.6k character and its start bit at every clock). Each channel's own registers have
   // its rate's widths (autobaud_channels.svh).

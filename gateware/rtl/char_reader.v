@@ -48,7 +48,6 @@ module char_reader #(
   output wire [PhaseWidth:0]   lag_o,
   output wire [PhaseWidth-1:0] pair_left_o
 );
-  localparam int BalanceWidth = PhaseWidth + 1;
   localparam int StateWidth = 4 * PhaseWidth + 21;
   // CHAR_READER_RESET: bit 11 (holding still), the rest 0.
   localparam logic [StateWidth-1:0] Reset = {4'd11, (StateWidth - 4)'(0)};

@@ -408,7 +408,7 @@ impl Summary {
 }
 
 pub fn run(args: &[String]) -> Result<()> {
-    check_flags(args, &["--quick", "--oversampled"], &["--shard", "--merge"])?;
+    check_flags(args, &["--quick", "--every-clock"], &["--shard", "--merge"])?;
     if let Some(dir) = flag_value(args, "--merge")? {
         if args.len() > 2 {
             bail!("--merge takes no other flag");
@@ -418,14 +418,14 @@ pub fn run(args: &[String]) -> Result<()> {
         return report(&rows, dir, "sweep");
     }
     let quick = args.iter().any(|a| a == "--quick");
-    // The search sampling the slower rates 16-20 times a bit (README "Gateware"), to see what
-    // it costs; its files are apart (`sweep-oversampled*`).
-    let oversampled = args.iter().any(|a| a == "--oversampled");
+    // The search with every channel sampling every clock, to compare with the transceiver's
+    // (README "Gateware"); its files are apart (`sweep-every-clock*`).
+    let every_clock = args.iter().any(|a| a == "--every-clock");
     let cfg = Config {
-        search_schedule: if oversampled {
-            dp_phy::autobaud::OVERSAMPLED
-        } else {
+        search_schedule: if every_clock {
             dp_phy::autobaud::EVERY_CLOCK
+        } else {
+            dp_phy::autobaud::OVERSAMPLED
         },
         ..Config::default()
     };
@@ -455,8 +455,8 @@ pub fn run(args: &[String]) -> Result<()> {
     );
 
     let rows = run_cases(&mine, &cfg);
-    let base = if oversampled {
-        "sweep-oversampled"
+    let base = if every_clock {
+        "sweep-every-clock"
     } else {
         "sweep"
     };

@@ -56,12 +56,14 @@ pub fn run(args: &[String]) -> Result<()> {
         "  {:<28} {:>6} {:>6} {:>6} {:>5}   (yosys synth_ice40, stat)",
         "block", "LUT4", "carry", "DFF", "BRAM"
     );
-    let search = blocks::autobaud(false);
-    let oversampled = blocks::autobaud(true);
+    // The transceiver's search samples the slower rates every few clocks, six of them taking
+    // turns (Oversampled 1); the build that samples every clock is synthesised beside it to
+    // show what that saves.
+    let search = blocks::autobaud(true);
     let builds = [
         blocks::line_sync(0),
         search.clone(),
-        oversampled.clone(),
+        blocks::autobaud(false),
         blocks::char_reader(blocks::run_time_width()),
         blocks::delimiter(),
         blocks::uart_tx(false),
@@ -84,13 +86,8 @@ pub fn run(args: &[String]) -> Result<()> {
         "  the search on the part: {used}/{total} logic cells ({}%), Fmax {fmax:.1} MHz",
         used * 100 / total.max(1)
     );
-    let (o_used, _, o_fmax) = place_and_route(&tools, &oversampled, &root)?;
     println!(
-        "  the oversampled search (not yet the transceiver's): {o_used}/{total} logic cells ({}%), Fmax {o_fmax:.1} MHz",
-        o_used * 100 / total.max(1)
-    );
-    println!(
-        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} clock_mhz={clock_mhz} oversampled_search_cells={o_used} bitstream=none (issue 27: no top module yet)",
+        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: no top module yet)",
         fpga.part
     );
     if total != u64::from(fpga.logic_cells) {
@@ -99,8 +96,8 @@ pub fn run(args: &[String]) -> Result<()> {
             fpga.logic_cells
         );
     }
-    if fmax < clock_mhz || o_fmax < clock_mhz {
-        bail!("the search reaches {fmax:.1} MHz (oversampled {o_fmax:.1}), under the {clock_mhz} MHz clock");
+    if fmax < clock_mhz {
+        bail!("the search reaches {fmax:.1} MHz, under the {clock_mhz} MHz clock");
     }
     Ok(())
 }

@@ -252,9 +252,9 @@ impl AutoBaud {
     /// and its figures (glitch, TSYN, the stop bit's middle and end) are whole samples.
     pub fn sampled(clock_hz: u32, schedule: Schedule) -> Self {
         let periods = schedule.period;
-        for r in 0..RATES {
+        for (phase, period) in schedule.phase.iter().zip(periods) {
             assert!(
-                schedule.phase[r] < periods[r].max(1),
+                *phase < period.max(1),
                 "a channel's phase is one of its period's clocks"
             );
         }

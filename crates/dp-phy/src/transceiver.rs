@@ -66,9 +66,9 @@ pub struct Config {
     pub baud_watchdog_10ms: u32,
     /// Idle bit times allowed between the characters of one telegram before it is a gap.
     pub max_gap_bits: u32,
-    /// When each rate's channel of the search samples the line
-    /// ([`crate::autobaud::EVERY_CLOCK`], or [`crate::autobaud::OVERSAMPLED`] to try the
-    /// oversampled search: `cargo xtask baud-sweep --oversampled`).
+    /// When each rate's channel of the search samples the line: [`crate::autobaud::OVERSAMPLED`],
+    /// as the gateware builds it, or [`crate::autobaud::EVERY_CLOCK`] to compare
+    /// (`cargo xtask baud-sweep --every-clock`).
     pub search_schedule: crate::autobaud::Schedule,
 }
 
@@ -78,7 +78,7 @@ impl Default for Config {
             clock_hz: crate::timing::DEFAULT_CLOCK_HZ,
             baud_watchdog_10ms: 20,
             max_gap_bits: 1,
-            search_schedule: crate::autobaud::EVERY_CLOCK,
+            search_schedule: crate::autobaud::OVERSAMPLED,
         }
     }
 }

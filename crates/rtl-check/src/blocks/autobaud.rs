@@ -24,8 +24,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::fmt::Write as _;
 
-/// The search as the transceiver builds it, or (`oversampled`) with the channels up to
-/// 1.5 Mbit/s sampling the line every few clocks.
+/// The search as the transceiver builds it (`oversampled`: the channels up to 1.5 Mbit/s
+/// sampling the line every few clocks, the six slowest taking turns in autobaud_shared.v), or
+/// with every channel sampling every clock.
 pub fn autobaud(oversampled: bool) -> Block {
     Block {
         top: "autobaud",
@@ -87,7 +88,7 @@ fn widths(f: &ChannelFigures) -> [u32; 5] {
 /// number of the shared frame's clocks.
 fn is_shared(schedule: &Schedule, r: usize) -> bool {
     let period = schedule.period[r];
-    period > 1 && period % SHARED_SLOTS == 0
+    period > 1 && period.is_multiple_of(SHARED_SLOTS)
 }
 
 const SVH_HEADER: &str = "// Written by crates/rtl-check (`blocks::autobaud`) from\n\

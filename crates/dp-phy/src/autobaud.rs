@@ -680,9 +680,20 @@ mod tests {
         glitches: &[(Tick, Tick)],
     ) -> Vec<(Tick, Result<Detection, Reject>)> {
         let ab = AutoBaud::new(DEFAULT_CLOCK_HZ);
+        let t0 = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0).clocks_for(idle_bits, 1);
+        decisions_of(&ab, baud, byte, t0, glitches)
+    }
+
+    /// As [`decisions`], on the search `ab` with the character's start edge at `t0`.
+    fn decisions_of(
+        ab: &AutoBaud,
+        baud: Baud,
+        byte: u8,
+        t0: Tick,
+        glitches: &[(Tick, Tick)],
+    ) -> Vec<(Tick, Result<Detection, Reject>)> {
         let t = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
         let bits = char_bits(byte);
-        let t0 = t.clocks_for(idle_bits, 1);
         let level_at = |now: Tick| {
             let clean = if now < t0 {
                 true
@@ -812,5 +823,66 @@ mod tests {
             let d = decisions(baud, SD2, 40, &[(rise, t.clocks_for(1, 3))]);
             assert_eq!(detected(&d), Some((baud, SD2)), "{baud}");
         }
+    }
+
+    /// The search as the gateware builds it: a channel takes the line on its own ticks only
+    /// (`OVERSAMPLED`'s period and phase), so a delimiter's start is the first of them at or
+    /// after the fall, on whichever clock of the channel's period the fall comes.
+    #[test]
+    fn a_sampled_channel_starts_on_its_own_ticks() {
+        let ab = AutoBaud::sampled(DEFAULT_CLOCK_HZ, OVERSAMPLED);
+        // 9.6k in slot 0, 93.75k in slot 3, 500k in slot 5, 1.5M on its own every 2 clocks.
+        for r in [0, 3, 5, 6] {
+            let baud = Baud::ALL[r];
+            let (period, phase) = (OVERSAMPLED.period[r], OVERSAMPLED.phase[r]);
+            let idle = crate::BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0).clocks_for(40, 1);
+            for offset in [0, 1, phase, phase + 1, period - 1] {
+                let t0 = idle.next_multiple_of(period) + offset;
+                let d = decisions_of(&ab, baud, SD2, t0, &[]);
+                assert_eq!(detected(&d), Some((baud, SD2)), "{baud} from {t0}");
+                let start = d.iter().find_map(|(_, r)| r.ok()).map(|d| d.start);
+                let first_sample = (t0..).find(|t| t % period == phase);
+                assert_eq!(start, first_sample, "{baud}: fall at {t0}");
+            }
+        }
+    }
+
+    /// A pulse between two of a channel's samples is never seen by it; one across a sample is
+    /// seen there, and by a channel that samples inside it.
+    #[test]
+    fn a_pulse_between_samples_is_not_seen() {
+        let ab = AutoBaud::sampled(DEFAULT_CLOCK_HZ, OVERSAMPLED);
+        // 500k in slot 5 of 6; 1.5M every other clock.
+        let (r, other) = (5, 6);
+        let (period, phase) = (OVERSAMPLED.period[r], OVERSAMPLED.phase[r]);
+        let pulse = |from: Tick, len: Tick| {
+            let mut q = AUTOBAUD_RESET;
+            let mut prev = true;
+            for now in 0..from + len + 2 * period {
+                let level = !(from..from + len).contains(&now);
+                let line = FilterOut {
+                    level,
+                    fell: prev && !level,
+                    rose: !prev && level,
+                };
+                ab.clock(now, line, None, &mut q);
+                prev = level;
+            }
+            q
+        };
+        // Low from just after one of 500k's samples to just before its next.
+        let from = 1000 * period + phase + 1;
+        let q = pulse(from, period - 1);
+        assert_eq!(q.last_edge[r], 0, "500k saw a pulse between its samples");
+        assert!(q.held[r] && q.sample_at[r] == Tick::MAX);
+        // 1.5M samples inside the pulse: it sees the rise at its first sample after it.
+        let rise_seen = (from + period - 1..).find(|t| t % OVERSAMPLED.period[other] == 0);
+        assert_eq!(Some(q.last_edge[other]), rise_seen, "1.5M missed the pulse");
+        // A pulse one clock longer covers 500k's next sample: the fall is seen there, and the
+        // rise at the sample after the pulse.
+        let q = pulse(from, period);
+        let rise_seen = (from + period..).find(|t| t % period == phase);
+        assert_eq!(Some(q.last_edge[r]), rise_seen, "500k's rise");
+        assert!(q.held[r]);
     }
 }

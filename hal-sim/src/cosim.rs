@@ -264,6 +264,9 @@ pub struct Figures {
     pub late_responses: u64,
     /// Telegrams the transceiver delivered with an error (never forwarded).
     pub bad_telegrams: u64,
+    /// Trials from a lock that failed back to it, while they go unlogged
+    /// (`CoSim::log_failed_trials`).
+    pub trials_failed_back: u64,
     pub collisions: u64,
     /// The firmware's stack at its deepest, where it has one to measure (under QEMU).
     pub stack_peak: Option<crate::firmware::StackPeak>,
@@ -296,6 +299,12 @@ pub struct CoSim<F: Firmware> {
     last_baud_state: BaudState,
     /// The transceiver's count of failed trials from a lock, at its last change of state.
     relock_trials_failed: u64,
+    /// Trials from a lock go into the events (the golden file); a scenario whose noise may
+    /// draw one by chance clears this: a trial is then logged only if it passes (as the new
+    /// lock), and one that fails back is counted in `figures.trials_failed_back`. Why: the co-simulation's bus timing varies by a
+    /// few clocks run to run (a link byte enters QEMU on its main loop), and random noise
+    /// then makes a start delimiter at another rate in some runs and not in others.
+    pub log_failed_trials: bool,
 }
 
 fn ticks_from_us(us: u64) -> Tick {
@@ -345,6 +354,7 @@ impl<F: Firmware> CoSim<F> {
             next_master_poll: 0,
             last_baud_state: BaudState::Searching,
             relock_trials_failed: 0,
+            log_failed_trials: true,
         };
         sim.bridge.boot(0);
         sim.settle()?;
@@ -609,15 +619,19 @@ impl<F: Firmware> CoSim<F> {
             (BaudState::Trial(t), BaudState::Locked(b))
                 if self.adapter.stats().relock_trials_failed > self.relock_trials_failed =>
             {
-                self.event(format!(
-                    "transceiver: trial at {t} failed, still locked at {b}"
-                ));
+                if self.log_failed_trials {
+                    self.event(format!(
+                        "transceiver: trial at {t} failed, still locked at {b}"
+                    ));
+                } else {
+                    self.figures.trials_failed_back += 1;
+                }
             }
             (_, BaudState::Locked(b)) if was != state => {
                 self.figures.locked = Some(b);
                 self.event(format!("transceiver: locked at {b}"));
             }
-            (BaudState::Locked(b), BaudState::Trial(t)) => {
+            (BaudState::Locked(b), BaudState::Trial(t)) if self.log_failed_trials => {
                 self.event(format!(
                     "transceiver: trial at {t}, the lock at {b} kept until it passes"
                 ));

@@ -1,7 +1,8 @@
 //! The receiver at a known rate, by the line's edges.
 //!
-//! Contract: it takes characters from the edges of the synchronised line ([`LineEdges`], the
-//! same edges the search sees), each bit by the level the line held longer within it. A glitch
+//! Contract: it takes characters from the edges of the synchronised line, each bit by the
+//! level the line held longer within it, read as the character arrives by a [`CharReader`] per
+//! candidate start (the gateware's form: a few registers a reader, one adder deep). A glitch
 //! shorter than half a bit cannot turn a bit so, nor can an edge it moved; a bit that held both
 //! levels equally long makes the character `Noise`, and so do edges off the bit grid that two
 //! glitches cannot explain (a faster rate's characters, which would otherwise read as whatever
@@ -19,24 +20,36 @@
 //! ```
 //!
 //! - A candidate whose start bit held high longer is a false start: it is dropped when the next
-//!   fall comes after its start bit, or at its decision; a character needs one with a start
-//!   bit, parity and stop bit right.
+//!   fall comes after its start bit, or at the end of the last candidate's start bit; a
+//!   character needs one with a start bit, parity and stop bit right. Each reader's start bit
+//!   is kept as it decides it.
 //! - Two candidates that read the same character are one (the later start is kept, so that
 //!   nothing after it is timed early); two that read different good characters are `Noise`:
 //!   the line does not say which it was.
 //! - The decision falls at the middle of the last candidate's stop bit, or, with the line low
 //!   there (a glitch in the stop bit, or a framing error), at its end: its whole stop bit is
 //!   weighed.
-//! - Falls that came while a decision was pending are taken from the edges kept afterwards, so
-//!   a character that starts while two candidates are still open is not lost.
+//! - The next character may start before that decision: from the middle of the first
+//!   candidate's stop bit on, falls open the next character's candidates in a second lane of
+//!   two readers, which goes on as the character under way at the decision.
 //!
-//! The receiver acts on falls and on its decision tick only: fast mode stops there.
+//! Two lanes of two readers: four characters' registers in all, where the receiver before kept
+//! the line's last 32 edges with 64-bit ticks and replayed them at each decision. The
+//! `receiver_replay` test holds the two equal (every character, error, start, end, idle time
+//! and deadline) on random lines at every rate. The one place the ring is still read is the
+//! search's hand-over ([`EdgeRx::catch_up`]): the receiver at a newly detected rate takes the
+//! edges since the middle of the detected character's stop bit from it; the gateware will have
+//! the search hand over a reader instead (README "Gateware").
+//!
+//! The receiver acts on edges and on its decision ticks only, its readers passing the clocks
+//! between at once ([`CharReader::advance`]): fast mode stops there.
 
-use crate::uart::{bits_by_longer_level, glitches_off_grid, parity_bit, CharError, RxChar};
+use crate::char_reader::{CharReader, CharReaderQ, CHAR_BITS, CHAR_READER_RESET};
+use crate::uart::{parity_bit, CharError, RxChar};
 use crate::{BitTiming, Tick};
 
-/// Edges kept: a character's 10 changes, a second candidate's, and glitches besides (a power
-/// of two: a ring).
+/// Edges kept for the search's hand-over: a character's 10 changes, a second candidate's, and
+/// glitches besides (a power of two: a ring).
 pub const EDGES_KEPT: usize = 32;
 
 /// Glitches a character may hold: two (the search, which decides the rate, takes one).
@@ -81,20 +94,53 @@ impl LineEdges {
     }
 }
 
-/// Registers of the receiver.
+/// One character's candidate starts, each read as it arrives by a reader of its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Lane {
+    /// Candidates under way (0: none), the first fall first, with their start ticks.
+    pub n_starts: u8,
+    pub starts: [Tick; 2],
+    pub readers: [CharReaderQ; 2],
+    /// Each candidate's start bit as its reader decided it: low, and no tie.
+    pub start_low: [bool; 2],
+    /// The fall that opened the candidates (whatever was dropped since), and the idle clocks
+    /// before it: the character's.
+    pub opened_at: Tick,
+    pub idle_before: Tick,
+    /// What the lane does at its deadline (`Tick::MAX`: nothing).
+    pub stage: Stage,
+    pub deadline: Tick,
+}
+
+pub const LANE_EMPTY: Lane = Lane {
+    n_starts: 0,
+    starts: [0; 2],
+    readers: [CHAR_READER_RESET; 2],
+    start_low: [false; 2],
+    opened_at: 0,
+    idle_before: 0,
+    stage: Stage::StartBit,
+    deadline: Tick::MAX,
+};
+
+/// Registers of the receiver: the character under way, and the next one, which may start
+/// before the first is decided (the decision waits for the middle of the last candidate's stop
+/// bit, or its end).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EdgeRxQ {
-    /// The candidate start edges of the character under way (numbers in [`LineEdges`]), the
-    /// first fall first; `n_starts` of them (0: none under way).
-    pub starts: [u64; 2],
-    pub n_starts: u8,
-    /// Idle clocks before the first candidate.
-    pub idle_before: Tick,
+    pub cur: Lane,
+    /// The falls from `next_from` on while `cur`'s decision is pending: the next character's
+    /// candidates, taken over by `cur` at the decision.
+    pub next: Lane,
+    /// The middle of `cur`'s first candidate's stop bit once its candidates are final
+    /// (`Tick::MAX` before).
+    pub next_from: Tick,
     /// A fall before this tick is in the last character's stop bit, no start.
     pub ready_at: Tick,
-    /// The tick the receiver acts on next (`Tick::MAX`: none under way), and what it does.
+    /// The readers have taken the line through this tick.
+    pub read_until: Tick,
+    /// `cur`'s deadline: the tick the receiver acts on next.
     pub deadline: Tick,
-    pub stage: Stage,
 }
 
 /// What the receiver does at its deadline.
@@ -110,18 +156,18 @@ pub enum Stage {
 }
 
 pub const EDGE_RX_RESET: EdgeRxQ = EdgeRxQ {
-    starts: [0; 2],
-    n_starts: 0,
-    idle_before: 0,
+    cur: LANE_EMPTY,
+    next: LANE_EMPTY,
+    next_from: Tick::MAX,
     ready_at: 0,
+    read_until: 0,
     deadline: Tick::MAX,
-    stage: Stage::StartBit,
 };
 
 impl EdgeRxQ {
     /// Whether a character is under way.
     pub fn active(&self) -> bool {
-        self.n_starts > 0
+        self.cur.n_starts > 0
     }
 }
 
@@ -136,6 +182,7 @@ enum Read {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EdgeRx {
     pub timing: BitTiming,
+    reader: CharReader,
     /// Clocks from a start edge to the end of its start bit, the middle of its stop bit, and
     /// its end.
     start_end: Tick,
@@ -147,97 +194,138 @@ impl EdgeRx {
     pub fn new(timing: BitTiming) -> Self {
         EdgeRx {
             timing,
+            reader: CharReader::new(timing),
             start_end: timing.clocks_for(1, 1),
             stop_middle: timing.clocks_for(21, 2),
             stop_end: timing.clocks_for(11, 1),
         }
     }
 
-    /// A fall of the line: edge `n` of `edges`, after `idle_before` idle clocks.
-    pub fn on_fall(&self, n: u64, idle_before: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
-        let Some((at, _)) = edges.get(n) else {
-            return;
-        };
-        if q.stage == Stage::StartBit {
-            self.drop_false_starts(at, edges, q);
-        }
-        if q.n_starts == 0 {
-            if at >= q.ready_at {
-                *q = EdgeRxQ {
-                    starts: [n, n],
-                    n_starts: 1,
-                    idle_before,
-                    deadline: at + self.start_end,
-                    stage: Stage::StartBit,
-                    ..*q
-                };
+    /// A change of the line at `now`: it `rose`, or fell after `idle_before` idle clocks.
+    pub fn on_edge(&self, now: Tick, rose: bool, idle_before: Tick, q: &mut EdgeRxQ) {
+        self.read_to(now.saturating_sub(1), !rose, q);
+        // Falls are judged on the readers through the clock before them: a start bit is over
+        // when its reader decided it on an earlier clock.
+        let mut started = [None, None];
+        if !rose {
+            if q.next_from <= now && q.cur.stage != Stage::StartBit {
+                started[1] = self.on_fall(&mut q.next, now, idle_before, 0);
+            } else {
+                started[0] = self.on_fall(&mut q.cur, now, idle_before, q.ready_at);
             }
-        } else if self.within_start_bit(self.start_tick(q.starts[0], edges), at) {
-            q.starts[1] = n;
-            q.n_starts = 2;
-            q.deadline = at + self.start_end;
-            q.stage = Stage::StartBit;
+        }
+        for (lane, started) in [(&mut q.cur, started[0]), (&mut q.next, started[1])] {
+            for i in 0..lane.n_starts as usize {
+                if started == Some(i) {
+                    self.reader.start(&mut lane.readers[i]);
+                } else {
+                    self.clock(lane, i, rose);
+                }
+            }
+        }
+        q.read_until = now;
+        q.deadline = q.cur.deadline;
+    }
+
+    /// A fall at `at` into `lane` (falls before `ready_at` start nothing). Returns the
+    /// candidate it starts, whose reader is to be started.
+    fn on_fall(
+        &self,
+        lane: &mut Lane,
+        at: Tick,
+        idle_before: Tick,
+        ready_at: Tick,
+    ) -> Option<usize> {
+        if lane.stage == Stage::StartBit {
+            self.drop_false_starts(lane);
+        }
+        if lane.n_starts == 0 {
+            if at < ready_at {
+                return None;
+            }
+            *lane = Lane {
+                n_starts: 1,
+                starts: [at, at],
+                opened_at: at,
+                idle_before,
+                stage: Stage::StartBit,
+                deadline: at + self.start_end,
+                ..LANE_EMPTY
+            };
+            Some(0)
+        } else if lane.readers[0].bit == 0 {
+            // Inside the first candidate's start bit: a second candidate (a later one replaces
+            // it).
+            lane.starts[1] = at;
+            lane.start_low[1] = false;
+            lane.n_starts = 2;
+            lane.deadline = at + self.start_end;
+            lane.stage = Stage::StartBit;
+            Some(1)
+        } else {
+            None
         }
     }
 
     /// The bit of the last candidate under way at `now`, for waveforms (0 with none).
-    pub fn bit_at(&self, now: Tick, edges: &LineEdges, q: &EdgeRxQ) -> u8 {
+    pub fn bit_at(&self, now: Tick, q: &EdgeRxQ) -> u8 {
         if !q.active() {
             return 0;
         }
-        let start = self.start_tick(q.starts[q.n_starts as usize - 1], edges);
+        let start = q.cur.starts[q.cur.n_starts as usize - 1];
         ((now - start.min(now)) * self.timing.inc / self.timing.modulo).min(15) as u8
     }
 
-    /// At the deadline (`now == q.deadline`), with the line at `level`: the character, if one
-    /// was decided (a false start is none), and the idle clocks before it.
-    pub fn act(
-        &self,
-        now: Tick,
-        level: bool,
-        edges: &LineEdges,
-        q: &mut EdgeRxQ,
-    ) -> Option<(RxChar, Tick)> {
-        match q.stage {
+    /// At the deadline (`now == q.deadline`, or after it), with the line at `level`: the
+    /// character, if one was decided (a false start is none), and the idle clocks before it.
+    pub fn act(&self, now: Tick, level: bool, q: &mut EdgeRxQ) -> Option<(RxChar, Tick)> {
+        self.read_to(now, level, q);
+        let out = match q.cur.stage {
             Stage::StartBit => {
-                self.drop_false_starts(now, edges, q);
+                // Every candidate's start bit is over by now.
+                self.drop_false_starts(&mut q.cur);
                 if q.active() {
-                    q.stage = Stage::StopMiddle;
-                    q.deadline = self.last_start(q, edges) + self.stop_middle;
+                    q.cur.stage = Stage::StopMiddle;
+                    q.cur.deadline = self.last_start(&q.cur) + self.stop_middle;
+                    q.next_from = q.cur.starts[0] + self.stop_middle;
                 }
                 None
             }
             Stage::StopMiddle if !level => {
-                q.stage = Stage::StopEnd;
-                q.deadline = self.last_start(q, edges) + self.stop_end;
+                q.cur.stage = Stage::StopEnd;
+                q.cur.deadline = self.last_start(&q.cur) + self.stop_end;
                 None
             }
-            Stage::StopMiddle | Stage::StopEnd => self.decide(edges, q),
-        }
+            Stage::StopMiddle | Stage::StopEnd => self.decide(level, q),
+        };
+        q.deadline = q.cur.deadline;
+        out
     }
 
-    fn last_start(&self, q: &EdgeRxQ, edges: &LineEdges) -> Tick {
-        self.start_tick(q.starts[q.n_starts as usize - 1], edges)
+    fn last_start(&self, lane: &Lane) -> Tick {
+        lane.starts[lane.n_starts as usize - 1]
     }
 
-    /// The candidates whose start bit is over by `now` and held high longer are dropped.
-    fn drop_false_starts(&self, now: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
+    /// The candidates whose start bit is over (decided by their reader) and did not read
+    /// low are dropped.
+    fn drop_false_starts(&self, lane: &mut Lane) {
         let mut kept = 0;
-        for i in 0..q.n_starts as usize {
-            let n = q.starts[i];
-            let t = self.start_tick(n, edges);
-            let over = !self.within_start_bit(t, now);
-            if !(over && self.read(n, 1, edges) != Some(0)) {
-                q.starts[kept] = n;
+        for i in 0..lane.n_starts as usize {
+            let over = lane.readers[i].bit >= 1;
+            // Kept: its start bit still under way, or read low.
+            if !over || lane.start_low[i] {
+                lane.starts[kept] = lane.starts[i];
+                lane.readers[kept] = lane.readers[i];
+                lane.start_low[kept] = lane.start_low[i];
                 kept += 1;
             }
         }
-        q.n_starts = kept as u8;
-        q.deadline = if kept == 0 {
+        lane.n_starts = kept as u8;
+        lane.deadline = if kept == 0 {
             Tick::MAX
         } else {
-            self.last_start(q, edges)
-                + match q.stage {
+            self.last_start(lane)
+                + match lane.stage {
                     Stage::StartBit => self.start_end,
                     Stage::StopMiddle => self.stop_middle,
                     Stage::StopEnd => self.stop_end,
@@ -245,58 +333,56 @@ impl EdgeRx {
         };
     }
 
-    fn start_tick(&self, n: u64, edges: &LineEdges) -> Tick {
-        edges.get(n).map_or(0, |(t, _)| t)
-    }
-
-    fn within_start_bit(&self, start: Tick, at: Tick) -> bool {
-        (at - start.min(at)) * self.timing.inc < self.timing.modulo
-    }
-
-    /// The edges of the character from start edge `n` up to `bits` bits after it, in phase
-    /// units from the start (`None` with the edges no longer kept).
-    fn edges_after(
-        &self,
-        n: u64,
-        bits: u32,
-        edges: &LineEdges,
-    ) -> Option<([u64; EDGES_KEPT], usize)> {
-        let (start, _) = edges.get(n)?;
-        let (inc, m) = (self.timing.inc, self.timing.modulo);
-        let mut rel = [0u64; EDGES_KEPT];
-        let mut count = 0;
-        for k in n + 1..edges.seen() {
-            let (at, _) = edges.get(k)?;
-            let e = (at - start) * inc;
-            if e >= u64::from(bits) * m {
-                break;
+    /// The readers under way through tick `until`, the line at `level` since the last tick
+    /// they took.
+    fn read_to(&self, until: Tick, level: bool, q: &mut EdgeRxQ) {
+        let n = until.saturating_sub(q.read_until);
+        if n > 0 {
+            for lane in [&mut q.cur, &mut q.next] {
+                for i in 0..lane.n_starts as usize {
+                    self.advance(lane, i, level, n);
+                }
             }
-            rel[count] = e;
-            count += 1;
         }
-        Some((rel, count))
+        q.read_until = q.read_until.max(until);
     }
 
-    /// Bits `0..bits` from the start edge `n` on its grid, each by the level held longer (the
-    /// line after the last edge taken as lasting); `None` on a tie, or with the edges gone.
-    fn read(&self, n: u64, bits: u32, edges: &LineEdges) -> Option<u16> {
-        let (rel, count) = self.edges_after(n, bits, edges)?;
-        bits_by_longer_level(&rel[..count], false, self.timing.modulo, bits)
+    /// `n` clocks of candidate `i`'s reader at `level`; its start bit's reading is kept as
+    /// it is decided.
+    fn advance(&self, lane: &mut Lane, i: usize, level: bool, n: u64) {
+        let r = &mut lane.readers[i];
+        if r.bit == 0 {
+            let to_decide = r.rem.div_ceil(self.reader.inc);
+            if n >= to_decide {
+                self.reader.advance(r, level, to_decide);
+                lane.start_low[i] = start_bit_low(r);
+                self.reader.advance(r, level, n - to_decide);
+                return;
+            }
+        }
+        self.reader.advance(r, level, n);
     }
 
-    fn read_char(&self, n: u64, edges: &LineEdges) -> Read {
+    /// Candidate `i`'s reader through one clock with an edge to `level`.
+    fn clock(&self, lane: &mut Lane, i: usize, level: bool) {
+        let r = &mut lane.readers[i];
+        let before = r.bit;
+        self.reader.clock(r, level, true);
+        if before == 0 && r.bit == 1 {
+            lane.start_low[i] = start_bit_low(r);
+        }
+    }
+
+    fn read_char(&self, r: &CharReaderQ, level: bool) -> Read {
         let noise = |byte| Read::Char(byte, Some(CharError::Noise));
-        let Some((rel, count)) = self.edges_after(n, 11, edges) else {
-            return noise(0);
-        };
-        let m = self.timing.modulo;
-        let Some(bits) = bits_by_longer_level(&rel[..count], false, m, 11) else {
+        let reading = self.reader.read(r, level);
+        let Some(bits) = reading.bits else {
             return noise(0);
         };
         let byte = (bits >> 1) as u8;
         let error = if bits & 1 == 1 {
             return Read::FalseStart;
-        } else if glitches_off_grid(&rel[..count], m) > MAX_GLITCHES {
+        } else if u32::from(reading.glitches) > MAX_GLITCHES {
             return noise(byte);
         } else if bits == 0 {
             Some(CharError::Break)
@@ -310,28 +396,28 @@ impl EdgeRx {
         Read::Char(byte, error)
     }
 
-    /// The decision: the character the candidates read, if any. Falls kept after the
-    /// character's stop bit's middle are then taken as if they came now.
-    fn decide(&self, edges: &LineEdges, q: &mut EdgeRxQ) -> Option<(RxChar, Tick)> {
-        let last = q.starts[q.n_starts as usize - 1];
-        let first = q.starts[0];
-        let (read, start) = if q.n_starts == 1 {
-            (self.read_char(first, edges), first)
+    /// The decision: the character the candidates read, if any. The next character's
+    /// candidates, from the falls since the middle of this one's stop bit, go on.
+    fn decide(&self, level: bool, q: &mut EdgeRxQ) -> Option<(RxChar, Tick)> {
+        let lane = &q.cur;
+        let last = lane.n_starts as usize - 1;
+        let first_read = self.read_char(&lane.readers[0], level);
+        let (read, start) = if last == 0 {
+            (first_read, 0)
         } else {
-            match (self.read_char(first, edges), self.read_char(last, edges)) {
+            match (first_read, self.read_char(&lane.readers[last], level)) {
                 (Read::Char(a, None), Read::Char(b, None)) if a != b => {
                     (Read::Char(b, Some(CharError::Noise)), last)
                 }
                 (_, b @ Read::Char(_, None)) => (b, last),
-                (a @ Read::Char(_, None), _) => (a, first),
+                (a @ Read::Char(_, None), _) => (a, 0),
                 (Read::FalseStart, b) => (b, last),
-                (a, _) => (a, first),
+                (a, _) => (a, 0),
             }
         };
-        let first_tick = self.start_tick(first, edges);
-        let start_tick = self.start_tick(start, edges);
-        let idle_before = q.idle_before;
-        *q = EDGE_RX_RESET;
+        let first_tick = lane.starts[0];
+        let start_tick = lane.starts[start];
+        let idle_before = lane.idle_before;
         let c = match read {
             Read::FalseStart => None,
             Read::Char(byte, error) => Some(RxChar {
@@ -342,26 +428,41 @@ impl EdgeRx {
             }),
         };
         let end = c.map_or(first_tick, |c| c.end);
-        self.catch_up(first_tick, end, edges, q);
+        q.cur = q.next;
+        q.cur.idle_before = q.cur.opened_at.saturating_sub(end);
+        q.next = LANE_EMPTY;
+        q.next_from = Tick::MAX;
+        q.ready_at = first_tick + self.stop_middle;
         c.map(|c| (c, idle_before))
     }
 
-    /// After a character that started at `start` and ends at `end` (decided by this receiver,
-    /// or by the search before it took over): the falls kept after the middle of its stop bit,
-    /// taken as if they came now. The next character may have started before the decision.
-    pub fn catch_up(&self, start: Tick, end: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
+    /// After the search decided a character that started at `start` and ends at `end`, at
+    /// `now`: the receiver on its rate, which did not exist before, takes the line's edges
+    /// since the middle of that character's stop bit (its next character may have started
+    /// before the decision) from `edges`, the line's last edges.
+    pub fn catch_up(&self, start: Tick, end: Tick, now: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
         q.ready_at = start + self.stop_middle;
         // The edges since then, found from the newest back: a few at most.
         let mut from = edges.seen();
         while from > 0 && edges.get(from - 1).is_some_and(|(at, _)| at >= q.ready_at) {
             from -= 1;
         }
+        q.read_until = q.ready_at;
         for k in from..edges.seen() {
-            if let Some((at, false)) = edges.get(k) {
-                self.on_fall(k, at.saturating_sub(end), edges, q);
+            if let Some((at, rose)) = edges.get(k) {
+                self.on_edge(at, rose, at.saturating_sub(end), q);
             }
         }
+        let level = edges
+            .get(edges.seen().wrapping_sub(1))
+            .is_none_or(|(_, rose)| rose);
+        self.read_to(now, level, q);
     }
+}
+
+/// Whether a reader that just decided the start bit read it low, with no tie.
+fn start_bit_low(r: &CharReaderQ) -> bool {
+    !r.tie && r.shift >> (CHAR_BITS - 1) & 1 == 0
 }
 
 #[cfg(test)]
@@ -395,20 +496,17 @@ mod tests {
 
     /// The characters the receiver takes from `line` over `ticks`, as the transceiver drives it.
     fn receive(rx: &EdgeRx, line: impl Fn(Tick) -> bool, ticks: Tick) -> Vec<RxChar> {
-        let (mut edges, mut q) = (LineEdges::EMPTY, EDGE_RX_RESET);
+        let mut q = EDGE_RX_RESET;
         let mut level = true;
         let mut got = Vec::new();
         for now in 0..ticks {
             let l = line(now);
             if l != level {
-                edges.push(now, l);
-                if !l {
-                    rx.on_fall(edges.seen() - 1, 0, &edges, &mut q);
-                }
+                rx.on_edge(now, l, 0, &mut q);
                 level = l;
             }
             if now >= q.deadline {
-                got.extend(rx.act(now, level, &edges, &mut q).map(|(c, _)| c));
+                got.extend(rx.act(now, level, &mut q).map(|(c, _)| c));
             }
         }
         got

@@ -6,7 +6,7 @@
 //!
 //! ```text
 //!  line ─► Synchroniser ─┬─► AutoBaud (a channel per rate: first delimiter ► rate + character)
-//!     (its last edges)   └─► EdgeRx (known rate: 11-bit characters, each bit by the level
+//!                        └─► EdgeRx (known rate: 11-bit characters, each bit by the level
 //!                                    held longer, a glitch weighed where it falls)
 //!                                   └─► Delimiter (TSYN, SD1/SD2/SD3/SD4/SC, LE/LEr, FCS, ED)
 //!  response ─► UartTx (min TSDR after the request, driver enable) ─► line

@@ -241,9 +241,7 @@ impl Transceiver {
         Probe {
             synced: self.sync_q.out,
             rx_active: self.rx_q.active(),
-            rx_bit: self
-                .rx
-                .map_or(0, |rx| rx.bit_at(self.now, &self.edges, &self.rx_q)),
+            rx_bit: self.rx.map_or(0, |rx| rx.bit_at(self.now, &self.rx_q)),
             measuring: self.search_q.measuring,
             in_telegram: self.delimiter.inside(),
             driver_enable: self.drive().is_some(),
@@ -324,9 +322,8 @@ impl Transceiver {
         self.sync_q = sfq;
         if sf.fell || sf.rose {
             self.edges.push(now, sf.rose);
-            if let (Some(rx), true) = (&self.rx, sf.fell) {
-                let n = self.edges.seen() - 1;
-                rx.on_fall(n, idle_before, &self.edges, &mut self.rx_q);
+            if let Some(rx) = &self.rx {
+                rx.on_edge(now, sf.rose, idle_before, &mut self.rx_q);
             }
         }
         // The search's own early exit, here: the rate heard is worth working out on its events
@@ -349,7 +346,7 @@ impl Transceiver {
 
         if let (Some(rx), false) = (self.rx, switched) {
             if now >= self.rx_q.deadline {
-                if let Some((c, idle_before)) = rx.act(now, sf.level, &self.edges, &mut self.rx_q) {
+                if let Some((c, idle_before)) = rx.act(now, sf.level, &mut self.rx_q) {
                     self.last_end = c.end;
                     if c.start > self.drove_until {
                         self.on_char(&c, idle_before, &mut out);
@@ -400,7 +397,7 @@ impl Transceiver {
         self.start_trial(d.baud, out);
         self.last_end = d.end;
         if let Some(rx) = self.rx {
-            rx.catch_up(d.start, d.end, &self.edges, &mut self.rx_q);
+            rx.catch_up(d.start, d.end, self.now, &self.edges, &mut self.rx_q);
         }
         let c = RxChar {
             byte: d.byte,

@@ -15,7 +15,8 @@
 //! character (several bit errors that parity may not see). Like a UART's, its bits are the
 //! samples' majority. Parity, framing (stop bit 0) and break (every bit 0) are reported too.
 //! The adapter's own receiver takes characters from the line's edges instead
-//! ([`crate::edge_rx`]), with [`bits_by_longer_level`] and [`glitches_off_grid`] from here.
+//! ([`crate::edge_rx`]), each bit by the level held longer, as [`bits_by_longer_level`] and
+//! [`glitches_off_grid`] here replay them (its character readers are held equal to these).
 //! The transmitter drives a character stream back to back with driver enable asserted only while
 //! it sends; it can hold the line idle for a number of its own bit times first (a master's TSYN)
 //! and, for fault injection, flip a data bit or drop a character.

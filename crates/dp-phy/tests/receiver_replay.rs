@@ -1,0 +1,419 @@
+//! The receiver reads what the replay of the line's edges reads: `edge_rx::EdgeRx` (readers
+//! that take each character as it arrives, the gateware's form) against the receiver it
+//! replaced, kept here as the oracle (`edge_replay`: the line's last 32 edges, each candidate's
+//! bits by the level held longer, `uart::bits_by_longer_level`, at its decision), on seeded
+//! random lines at every rate with the search's hand-overs among them: the same characters,
+//! errors, starts, ends and idle times, and the same deadlines after every event.
+
+use dp_phy::edge_rx::{self, LineEdges};
+use dp_phy::timing::DEFAULT_CLOCK_HZ;
+use dp_phy::{Baud, BitTiming, Tick};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// The receiver before the character readers (edge_rx.rs at 863a53d), unchanged but for its
+/// paths: it replays the ring at each decision.
+#[allow(dead_code)]
+mod edge_replay {
+    use dp_phy::edge_rx::LineEdges;
+    use dp_phy::uart::{bits_by_longer_level, glitches_off_grid, parity_bit, CharError, RxChar};
+    use dp_phy::{BitTiming, Tick};
+
+    const EDGES_KEPT: usize = 32;
+    const MAX_GLITCHES: u32 = 2;
+
+    /// Registers of the receiver.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub struct EdgeRxQ {
+        /// The candidate start edges of the character under way (numbers in [`LineEdges`]), the
+        /// first fall first; `n_starts` of them (0: none under way).
+        pub starts: [u64; 2],
+        pub n_starts: u8,
+        /// Idle clocks before the first candidate.
+        pub idle_before: Tick,
+        /// A fall before this tick is in the last character's stop bit, no start.
+        pub ready_at: Tick,
+        /// The tick the receiver acts on next (`Tick::MAX`: none under way), and what it does.
+        pub deadline: Tick,
+        pub stage: Stage,
+    }
+
+    /// What the receiver does at its deadline.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub enum Stage {
+        /// The last candidate's start bit is over: the candidates whose start bit held high longer
+        /// are dropped (a low glitch on an idle line is gone a bit later, not at the decision).
+        StartBit,
+        /// The middle of the last candidate's stop bit: the decision, with the line high there.
+        StopMiddle,
+        /// The end of that stop bit: the decision, the line having been low at its middle.
+        StopEnd,
+    }
+
+    pub const EDGE_RX_RESET: EdgeRxQ = EdgeRxQ {
+        starts: [0; 2],
+        n_starts: 0,
+        idle_before: 0,
+        ready_at: 0,
+        deadline: Tick::MAX,
+        stage: Stage::StartBit,
+    };
+
+    impl EdgeRxQ {
+        /// Whether a character is under way.
+        pub fn active(&self) -> bool {
+            self.n_starts > 0
+        }
+    }
+
+    /// What one candidate start reads.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    enum Read {
+        FalseStart,
+        Char(u8, Option<CharError>),
+    }
+
+    /// The receiver's fixed configuration for one rate.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub struct EdgeRx {
+        pub timing: BitTiming,
+        /// Clocks from a start edge to the end of its start bit, the middle of its stop bit, and
+        /// its end.
+        start_end: Tick,
+        stop_middle: Tick,
+        stop_end: Tick,
+    }
+
+    impl EdgeRx {
+        pub fn new(timing: BitTiming) -> Self {
+            EdgeRx {
+                timing,
+                start_end: timing.clocks_for(1, 1),
+                stop_middle: timing.clocks_for(21, 2),
+                stop_end: timing.clocks_for(11, 1),
+            }
+        }
+
+        /// A fall of the line: edge `n` of `edges`, after `idle_before` idle clocks.
+        pub fn on_fall(&self, n: u64, idle_before: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
+            let Some((at, _)) = edges.get(n) else {
+                return;
+            };
+            if q.stage == Stage::StartBit {
+                self.drop_false_starts(at, edges, q);
+            }
+            if q.n_starts == 0 {
+                if at >= q.ready_at {
+                    *q = EdgeRxQ {
+                        starts: [n, n],
+                        n_starts: 1,
+                        idle_before,
+                        deadline: at + self.start_end,
+                        stage: Stage::StartBit,
+                        ..*q
+                    };
+                }
+            } else if self.within_start_bit(self.start_tick(q.starts[0], edges), at) {
+                q.starts[1] = n;
+                q.n_starts = 2;
+                q.deadline = at + self.start_end;
+                q.stage = Stage::StartBit;
+            }
+        }
+
+        /// The bit of the last candidate under way at `now`, for waveforms (0 with none).
+        pub fn bit_at(&self, now: Tick, edges: &LineEdges, q: &EdgeRxQ) -> u8 {
+            if !q.active() {
+                return 0;
+            }
+            let start = self.start_tick(q.starts[q.n_starts as usize - 1], edges);
+            ((now - start.min(now)) * self.timing.inc / self.timing.modulo).min(15) as u8
+        }
+
+        /// At the deadline (`now == q.deadline`), with the line at `level`: the character, if one
+        /// was decided (a false start is none), and the idle clocks before it.
+        pub fn act(
+            &self,
+            now: Tick,
+            level: bool,
+            edges: &LineEdges,
+            q: &mut EdgeRxQ,
+        ) -> Option<(RxChar, Tick)> {
+            match q.stage {
+                Stage::StartBit => {
+                    self.drop_false_starts(now, edges, q);
+                    if q.active() {
+                        q.stage = Stage::StopMiddle;
+                        q.deadline = self.last_start(q, edges) + self.stop_middle;
+                    }
+                    None
+                }
+                Stage::StopMiddle if !level => {
+                    q.stage = Stage::StopEnd;
+                    q.deadline = self.last_start(q, edges) + self.stop_end;
+                    None
+                }
+                Stage::StopMiddle | Stage::StopEnd => self.decide(edges, q),
+            }
+        }
+
+        fn last_start(&self, q: &EdgeRxQ, edges: &LineEdges) -> Tick {
+            self.start_tick(q.starts[q.n_starts as usize - 1], edges)
+        }
+
+        /// The candidates whose start bit is over by `now` and held high longer are dropped.
+        fn drop_false_starts(&self, now: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
+            let mut kept = 0;
+            for i in 0..q.n_starts as usize {
+                let n = q.starts[i];
+                let t = self.start_tick(n, edges);
+                let over = !self.within_start_bit(t, now);
+                if !(over && self.read(n, 1, edges) != Some(0)) {
+                    q.starts[kept] = n;
+                    kept += 1;
+                }
+            }
+            q.n_starts = kept as u8;
+            q.deadline = if kept == 0 {
+                Tick::MAX
+            } else {
+                self.last_start(q, edges)
+                    + match q.stage {
+                        Stage::StartBit => self.start_end,
+                        Stage::StopMiddle => self.stop_middle,
+                        Stage::StopEnd => self.stop_end,
+                    }
+            };
+        }
+
+        fn start_tick(&self, n: u64, edges: &LineEdges) -> Tick {
+            edges.get(n).map_or(0, |(t, _)| t)
+        }
+
+        fn within_start_bit(&self, start: Tick, at: Tick) -> bool {
+            (at - start.min(at)) * self.timing.inc < self.timing.modulo
+        }
+
+        /// The edges of the character from start edge `n` up to `bits` bits after it, in phase
+        /// units from the start (`None` with the edges no longer kept).
+        fn edges_after(
+            &self,
+            n: u64,
+            bits: u32,
+            edges: &LineEdges,
+        ) -> Option<([u64; EDGES_KEPT], usize)> {
+            let (start, _) = edges.get(n)?;
+            let (inc, m) = (self.timing.inc, self.timing.modulo);
+            let mut rel = [0u64; EDGES_KEPT];
+            let mut count = 0;
+            for k in n + 1..edges.seen() {
+                let (at, _) = edges.get(k)?;
+                let e = (at - start) * inc;
+                if e >= u64::from(bits) * m {
+                    break;
+                }
+                rel[count] = e;
+                count += 1;
+            }
+            Some((rel, count))
+        }
+
+        /// Bits `0..bits` from the start edge `n` on its grid, each by the level held longer (the
+        /// line after the last edge taken as lasting); `None` on a tie, or with the edges gone.
+        fn read(&self, n: u64, bits: u32, edges: &LineEdges) -> Option<u16> {
+            let (rel, count) = self.edges_after(n, bits, edges)?;
+            bits_by_longer_level(&rel[..count], false, self.timing.modulo, bits)
+        }
+
+        fn read_char(&self, n: u64, edges: &LineEdges) -> Read {
+            let noise = |byte| Read::Char(byte, Some(CharError::Noise));
+            let Some((rel, count)) = self.edges_after(n, 11, edges) else {
+                return noise(0);
+            };
+            let m = self.timing.modulo;
+            let Some(bits) = bits_by_longer_level(&rel[..count], false, m, 11) else {
+                return noise(0);
+            };
+            let byte = (bits >> 1) as u8;
+            let error = if bits & 1 == 1 {
+                return Read::FalseStart;
+            } else if glitches_off_grid(&rel[..count], m) > MAX_GLITCHES {
+                return noise(byte);
+            } else if bits == 0 {
+                Some(CharError::Break)
+            } else if bits >> 10 & 1 == 0 {
+                Some(CharError::Framing)
+            } else if (bits >> 9 & 1 == 1) != parity_bit(byte) {
+                Some(CharError::Parity)
+            } else {
+                None
+            };
+            Read::Char(byte, error)
+        }
+
+        /// The decision: the character the candidates read, if any. Falls kept after the
+        /// character's stop bit's middle are then taken as if they came now.
+        fn decide(&self, edges: &LineEdges, q: &mut EdgeRxQ) -> Option<(RxChar, Tick)> {
+            let last = q.starts[q.n_starts as usize - 1];
+            let first = q.starts[0];
+            let (read, start) = if q.n_starts == 1 {
+                (self.read_char(first, edges), first)
+            } else {
+                match (self.read_char(first, edges), self.read_char(last, edges)) {
+                    (Read::Char(a, None), Read::Char(b, None)) if a != b => {
+                        (Read::Char(b, Some(CharError::Noise)), last)
+                    }
+                    (_, b @ Read::Char(_, None)) => (b, last),
+                    (a @ Read::Char(_, None), _) => (a, first),
+                    (Read::FalseStart, b) => (b, last),
+                    (a, _) => (a, first),
+                }
+            };
+            let first_tick = self.start_tick(first, edges);
+            let start_tick = self.start_tick(start, edges);
+            let idle_before = q.idle_before;
+            *q = EDGE_RX_RESET;
+            let c = match read {
+                Read::FalseStart => None,
+                Read::Char(byte, error) => Some(RxChar {
+                    byte,
+                    error,
+                    start: start_tick,
+                    end: start_tick + self.stop_end,
+                }),
+            };
+            let end = c.map_or(first_tick, |c| c.end);
+            self.catch_up(first_tick, end, edges, q);
+            c.map(|c| (c, idle_before))
+        }
+
+        /// After a character that started at `start` and ends at `end` (decided by this receiver,
+        /// or by the search before it took over): the falls kept after the middle of its stop bit,
+        /// taken as if they came now. The next character may have started before the decision.
+        pub fn catch_up(&self, start: Tick, end: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
+            q.ready_at = start + self.stop_middle;
+            // The edges since then, found from the newest back: a few at most.
+            let mut from = edges.seen();
+            while from > 0 && edges.get(from - 1).is_some_and(|(at, _)| at >= q.ready_at) {
+                from -= 1;
+            }
+            for k in from..edges.seen() {
+                if let Some((at, false)) = edges.get(k) {
+                    self.on_fall(k, at.saturating_sub(end), edges, q);
+                }
+            }
+        }
+    }
+}
+
+/// A random line at `baud`: runs of either level from a clock to three bits, bursts of
+/// glitches, and whole characters at the rate now and then; with the search's hand-overs at
+/// random ticks (a character decided by the search, which started 10 to 12 bits before).
+fn compare(seed: u64, baud: Baud, bits: u64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let t = BitTiming::new(DEFAULT_CLOCK_HZ, baud, rng.gen_range(-5000..=5000));
+    let bit = t.clocks_per_bit();
+    // The line as (tick, level after) edges.
+    let mut edges_at: Vec<(Tick, bool)> = Vec::new();
+    let (mut now, mut level) = (3 * bit, true);
+    while now < bits * bit {
+        if rng.gen_ratio(1, 4) {
+            // A character: start, 8 data, even parity, stop, at the master's rate.
+            let byte: u8 = rng.gen();
+            let mut char_bits = vec![false];
+            char_bits.extend((0..8).map(|i| byte >> i & 1 == 1));
+            char_bits.push(byte.count_ones() % 2 == 1);
+            char_bits.push(true);
+            for (i, &b) in char_bits.iter().enumerate() {
+                if b != level {
+                    edges_at.push((now + t.clocks_for(i as u64, 1), b));
+                    level = b;
+                }
+            }
+            now += t.clocks_for(11, 1) + rng.gen_range(0..2 * bit);
+        } else {
+            now += rng.gen_range(1..=3 * bit);
+            level = !level;
+            edges_at.push((now, level));
+        }
+    }
+    let handovers: Vec<Tick> = (0..rng.gen_range(0..4))
+        .map(|_| rng.gen_range(20 * bit..bits * bit))
+        .collect();
+    let ours = edge_rx::EdgeRx::new(BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0));
+    let replay = edge_replay::EdgeRx::new(BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0));
+    let (mut q, mut rq) = (edge_rx::EDGE_RX_RESET, edge_replay::EDGE_RX_RESET);
+    let mut edges = LineEdges::EMPTY;
+    let (mut got, mut want) = (Vec::new(), Vec::new());
+    let (mut next_edge, mut line) = (0, true);
+    let mut handover = handovers.iter().copied().peekable();
+    let end = bits * bit + 20 * bit;
+    let mut now = 0;
+    while now < end {
+        if let Some(&(at, rose)) = edges_at.get(next_edge).filter(|(at, _)| *at == now) {
+            edges.push(at, rose);
+            line = rose;
+            // The idle before a fall, as the transceiver would count it: any figure will do
+            // as long as both receivers get it.
+            let idle = now / 7;
+            if !rose {
+                replay.on_fall(edges.seen() - 1, idle, &edges, &mut rq);
+            }
+            ours.on_edge(now, rose, idle, &mut q);
+            next_edge += 1;
+        }
+        if handover.next_if(|&h| h == now).is_some() {
+            let start = now - rng.gen_range(10 * bit..12 * bit);
+            let end = start + t.clocks_for(11, 1);
+            rq = edge_replay::EdgeRxQ {
+                ready_at: now,
+                ..edge_replay::EDGE_RX_RESET
+            };
+            q = edge_rx::EdgeRxQ {
+                ready_at: now,
+                ..edge_rx::EDGE_RX_RESET
+            };
+            replay.catch_up(start, end, &edges, &mut rq);
+            ours.catch_up(start, end, now, &edges, &mut q);
+        } else {
+            if now >= rq.deadline {
+                want.extend(replay.act(now, line, &edges, &mut rq).map(|c| (now, c)));
+            }
+            if now >= q.deadline {
+                got.extend(ours.act(now, line, &mut q).map(|c| (now, c)));
+            }
+        }
+        assert_eq!(
+            q.deadline, rq.deadline,
+            "seed {seed} {baud}: deadline at {now}"
+        );
+        assert_eq!(
+            q.active(),
+            rq.active(),
+            "seed {seed} {baud}: under way at {now}"
+        );
+        // On to the next event: an edge, a deadline, a hand-over.
+        let mut next = end;
+        if let Some(&(at, _)) = edges_at.get(next_edge) {
+            next = next.min(at);
+        }
+        if let Some(&h) = handover.peek() {
+            next = next.min(h);
+        }
+        next = next
+            .min(q.deadline.max(now + 1))
+            .min(rq.deadline.max(now + 1));
+        now = next.max(now + 1);
+    }
+    assert_eq!(got, want, "seed {seed} {baud}");
+}
+
+proptest! {
+    #![proptest_config(prop_cases::config(256))]
+
+    #[test]
+    fn the_receiver_reads_what_the_edge_replay_reads(seed in any::<u64>(), rate in 0usize..10) {
+        compare(seed, Baud::ALL[rate], 150);
+    }
+}

@@ -2,10 +2,10 @@
 // uses it. PROFIBUS characters (start 0, 8 data bits LSB first, even parity, stop 1) back to
 // back, the driver enabled only while they go out.
 //
-// Timing is the model's phase accumulator (BitTiming) in units of 10^6: the transceiver's own
-// timing has no ppm offset, so the model's inc (rate x 10^6) and modulo (clock x 10^6) are whole
-// multiples of 10^6, and ph_q stays the model's ph / 10^6 at every clock. inc_i is the rate in
-// bit/s, modulo_i the sample clock in Hz.
+// Timing is the model's phase accumulator (BitTiming), ph_q the model's ph at every clock. The
+// transceiver's own timing is whole clocks (BitTiming::whole_clocks): inc_i 1 and modulo_i the
+// clocks of a bit. (The ports are as wide as the exact rates needed, the rate in bit/s and the
+// clock in Hz; narrowing them to a clock counter is still to do.)
 //
 // start_i is the model's send(0, bytes) and the tick of the same clock (the transceiver sends
 // then ticks). The transceiver waits min TSDR before it starts, so the model's leading idle

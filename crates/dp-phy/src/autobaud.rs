@@ -259,18 +259,16 @@ impl AutoBaud {
             );
         }
         let timings: [crate::BitTiming; RATES] = core::array::from_fn(|r| {
-            let t = crate::BitTiming::new(clock_hz, Baud::ALL[r], 0);
             if periods[r] <= 1 {
-                return t;
+                return crate::BitTiming::new(clock_hz, Baud::ALL[r], 0);
             }
-            // A sampled channel times its bit in whole clocks, as a divider of the sample
-            // clock does: at 48 MHz every rate's bit is whole but 45.45k's, which becomes
-            // 1,056 clocks (45,454.5 bit/s, 100 ppm off), 16 samples of 66 clocks exactly
-            // instead of a fraction that would need 18-bit phase registers. One sample:
-            // `period` clocks of phase.
+            // A sampled channel times its bit in whole clocks, as the adapter does
+            // (`BitTiming::whole_clocks`): 45.45k is 16 samples of 66 clocks exactly instead
+            // of a fraction that would need 18-bit phase registers. One sample: `period`
+            // clocks of phase.
             crate::BitTiming {
                 inc: periods[r],
-                modulo: (t.modulo + t.inc / 2) / t.inc,
+                ..crate::BitTiming::whole_clocks(clock_hz, Baud::ALL[r])
             }
         });
         let p = |r: usize| periods[r].max(1);

@@ -42,6 +42,19 @@ impl BitTiming {
         timing
     }
 
+    /// The adapter's own timing of `baud`: a bit of whole sample clocks (the nearest), as a
+    /// divider of the sample clock makes it. At 48 MHz every rate's bit is whole already but
+    /// 45.45k's, which becomes 1,056 clocks (45,454.5 bit/s, 100 ppm off the nominal 45,450,
+    /// what a 48 MHz ASIC makes): the receiver's and the transmitter's phase registers then
+    /// count clocks, 13 bits at 9.6k, where the exact fraction needed 19.
+    pub fn whole_clocks(clock_hz: u32, baud: Baud) -> Self {
+        let exact = Self::new(clock_hz, baud, 0);
+        BitTiming {
+            inc: 1,
+            modulo: (exact.modulo + exact.inc / 2) / exact.inc,
+        }
+    }
+
     /// The same timing in the fewest phase units: `inc` and `modulo` over their greatest
     /// common divisor. Every comparison of the receivers is between sums of `inc` and
     /// multiples of `modulo`, so none changes; the RTL's phase registers get narrow (12 Mbit/s

@@ -473,7 +473,8 @@ impl Transceiver {
     /// Receiver, transmitter and delimiter for `baud`, from idle (the line's edges until now
     /// were at another rate); a waiting response is dropped.
     fn use_rate(&mut self, baud: Baud) {
-        let timing = BitTiming::new(self.cfg.clock_hz, baud, 0);
+        // A divider of the sample clock: the rate's bit in whole clocks.
+        let timing = BitTiming::whole_clocks(self.cfg.clock_hz, baud);
         self.rx = Some(EdgeRx::new(timing));
         self.tx = Some(UartTx::new(timing));
         self.pending_not_before = None;

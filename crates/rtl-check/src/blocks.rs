@@ -76,11 +76,11 @@ struct TxCase {
 
 impl TxCase {
     fn new(baud: Baud) -> TxCase {
-        let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
+        // The adapter's timing: a bit of whole clocks.
+        let timing = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud);
         let mut stimulus = vec![b'T'];
-        // The model's inc and modulo over 10^6 (no ppm offset: both are whole multiples).
-        stimulus.extend_from_slice(&((timing.inc / 1_000_000) as u32).to_le_bytes());
-        stimulus.extend_from_slice(&((timing.modulo / 1_000_000) as u32).to_le_bytes());
+        stimulus.extend_from_slice(&(timing.inc as u32).to_le_bytes());
+        stimulus.extend_from_slice(&(timing.modulo as u32).to_le_bytes());
         TxCase {
             model: UartTx::new(timing),
             stimulus,

@@ -34,13 +34,15 @@ pub fn char_reader(width: u32) -> Block {
     }
 }
 
-/// Bits that hold `baud`'s reduced modulo.
+/// Bits that hold `baud`'s reduced modulo, the receiver's timing (whole clocks).
 pub fn width_of(baud: Baud) -> u32 {
-    let modulo = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0).reduced().modulo;
+    let modulo = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud)
+        .reduced()
+        .modulo;
     u64::BITS - modulo.leading_zeros()
 }
 
-/// Bits that hold every rate's reduced modulo (45.45 kbit/s: 320,000 units, 19 bits).
+/// Bits that hold every rate's reduced modulo (9.6 kbit/s: 5,000 clocks, 13 bits).
 pub fn run_time_width() -> u32 {
     Baud::ALL.iter().map(|&b| width_of(b)).max().expect("rates")
 }
@@ -58,7 +60,7 @@ struct ReaderCase {
 
 impl ReaderCase {
     fn new(baud: Baud) -> ReaderCase {
-        let reader = CharReader::new(BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0));
+        let reader = CharReader::new(BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud));
         let mut stimulus = vec![b'T'];
         for figure in [
             reader.inc,

@@ -4,8 +4,7 @@
 //
 // Timing is the model's phase accumulator (BitTiming), ph_q the model's ph at every clock. The
 // transceiver's own timing is whole clocks (BitTiming::whole_clocks): inc_i 1 and modulo_i the
-// clocks of a bit. (The ports are as wide as the exact rates needed, the rate in bit/s and the
-// clock in Hz; narrowing them to a clock counter is still to do.)
+// clocks of a bit, PhaseWidth bits wide.
 //
 // start_i is the model's send(0, bytes) and the tick of the same clock (the transceiver sends
 // then ticks). The transceiver waits min TSDR before it starts, so the model's leading idle
@@ -20,12 +19,14 @@
 
 module uart_tx #(
   // A test build's deliberate fault (rtl-check proves it finds it): the output one clock late.
-  parameter int LateByOne = 0
+  parameter int LateByOne = 0,
+  // Holds the widest rate's modulo (the clocks of a 9.6k bit: 13 bits).
+  parameter int PhaseWidth = 13
 ) (
   input  wire        clk_i,
   input  wire        rst_ni,
-  input  wire [23:0] inc_i,
-  input  wire [25:0] modulo_i,
+  input  wire [PhaseWidth-1:0] inc_i,
+  input  wire [PhaseWidth-1:0] modulo_i,
   input  wire        start_i,
   input  wire [7:0]  len_i,
   output wire [7:0]  rd_addr_o,
@@ -37,11 +38,11 @@ module uart_tx #(
   // TX_RESET.
   logic [7:0]  index_q, index_d;
   logic [3:0]  bit_q, bit_d;
-  logic [25:0] ph_q, ph_d;
+  logic [PhaseWidth-1:0] ph_q, ph_d;
   logic        sending_q, sending_d;
   logic [7:0]  len_q, len_d;
   logic [7:0]  byte_q, byte_d;
-  logic [26:0] ph_next;
+  logic [PhaseWidth:0] ph_next;
 
   always_comb begin
     index_d   = index_q;
@@ -50,21 +51,21 @@ module uart_tx #(
     sending_d = sending_q;
     len_d     = len_q;
     byte_d    = byte_q;
-    ph_next   = {1'b0, ph_q} + {3'b0, inc_i};
+    ph_next   = {1'b0, ph_q} + {1'b0, inc_i};
     if (start_i) begin
       // send(): the first character's start bit; then this clock's tick, which cannot cross a
       // boundary (a bit lasts at least 3 clocks).
       index_d   = '0;
       bit_d     = '0;
-      ph_d      = {2'b0, inc_i};
+      ph_d      = inc_i;
       sending_d = len_i != 0;
       len_d     = len_i;
       byte_d    = rd_data_i;
     end else if (sending_q) begin
       if (ph_next < {1'b0, modulo_i}) begin
-        ph_d = ph_next[25:0];
+        ph_d = ph_next[PhaseWidth-1:0];
       end else begin
-        ph_d = 26'(ph_next - {1'b0, modulo_i});
+        ph_d = PhaseWidth'(ph_next - {1'b0, modulo_i});
         if (bit_q < 4'd10) begin
           bit_d = bit_q + 1'b1;
         end else begin

@@ -45,10 +45,13 @@ pub fn uart_tx(late_by_one: bool) -> Block {
         top: "uart_tx",
         rtl: &["uart_tx.v"],
         signals: &["tx", "de"],
-        params: if late_by_one {
-            vec![("LateByOne", 1)]
-        } else {
-            Vec::new()
+        params: {
+            let width = ("PhaseWidth", i64::from(run_time_width()));
+            if late_by_one {
+                vec![("LateByOne", 1), width]
+            } else {
+                vec![width]
+            }
         },
         twin: "dp_phy::uart::UartTx",
         events: false,

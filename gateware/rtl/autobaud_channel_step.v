@@ -59,7 +59,10 @@ module autobaud_channel_step #(
   output wire [7:0]            byte_o,
   // Samples since the detected character's start edge, and the second start's offset.
   output wire [StartAgeWidth-1:0] since_t0_o,
-  output wire [AltOutWidth-1:0]   offset_o
+  output wire [AltOutWidth-1:0]   offset_o,
+  // A measurement under way, in state_i and in state_o: the packed layout stays known here.
+  output wire                  measuring_o,
+  output wire                  measuring_next_o
 );
   localparam int MaxEdges = 16;
   localparam int BalanceWidth = PhaseWidth + 1;
@@ -240,6 +243,8 @@ module autobaud_channel_step #(
   assign byte_o        = data;
   assign since_t0_o    = StartAgeWidth'(since_t0_q);
   assign offset_o      = AltOutWidth'(offset);
+  assign measuring_o   = measuring_q;
+  assign measuring_next_o = measuring_d;
 
   // The readers: from the start edge, and from the second candidate start.
   char_reader_step #(.PhaseWidth(PhaseWidth)) u_from_start (

@@ -208,7 +208,7 @@ impl EdgeRx {
         // when its reader decided it on an earlier clock.
         let mut started = [None, None];
         if !rose {
-            if q.next_from <= now && q.cur.stage != Stage::StartBit {
+            if q.next_from <= now {
                 started[1] = self.on_fall(&mut q.next, now, idle_before, 0);
             } else {
                 started[0] = self.on_fall(&mut q.cur, now, idle_before, q.ready_at);

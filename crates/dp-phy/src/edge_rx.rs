@@ -36,10 +36,14 @@
 //! Two lanes of two readers: four characters' registers in all, where the receiver before kept
 //! the line's last 32 edges with 64-bit ticks and replayed them at each decision. The
 //! `receiver_replay` test holds the two equal (every character, error, start, end, idle time
-//! and deadline) on random lines at every rate. The one place the ring is still read is the
-//! search's hand-over ([`EdgeRx::catch_up`]): the receiver at a newly detected rate takes the
-//! edges since the middle of the detected character's stop bit from it; the gateware will have
-//! the search hand over a reader instead (README "Gateware").
+//! and deadline) on random lines at every rate.
+//!
+//! A receiver at a newly detected rate starts at the search's decision ([`EdgeRx::hand_over`])
+//! with nothing but that clock's fall: a character that started between the middle of the
+//! detected character's stop bit and the decision (a glitch in its start bit or at its stop
+//! bit's middle puts the decision up to a bit later) is lost, and so is its telegram. The
+//! search hands over no edges, so the line's edges are kept nowhere (README "Gateware": three
+//! of the sweep's 1980 cases lock a telegram later for it, all hit by glitches).
 //!
 //! The receiver acts on edges and on its decision ticks only, its readers passing the clocks
 //! between at once ([`CharReader::advance`]): fast mode stops there.
@@ -48,51 +52,8 @@ use crate::char_reader::{CharReader, CharReaderQ, CHAR_BITS, CHAR_READER_RESET};
 use crate::uart::{parity_bit, CharError, RxChar};
 use crate::{BitTiming, Tick};
 
-/// Edges kept for the search's hand-over: a character's 10 changes, a second candidate's, and
-/// glitches besides (a power of two: a ring).
-pub const EDGES_KEPT: usize = 32;
-
 /// Glitches a character may hold: two (the search, which decides the rate, takes one).
 const MAX_GLITCHES: u32 = 2;
-
-/// The line's last edges, a ring: each with its tick and whether the line rose.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct LineEdges {
-    at: [Tick; EDGES_KEPT],
-    /// Bit `i`: the edge in slot `i` was a rise.
-    rose: u32,
-    /// Edges since reset: edge `n` is in slot `n % EDGES_KEPT` while it is kept.
-    seen: u64,
-}
-
-impl LineEdges {
-    pub const EMPTY: LineEdges = LineEdges {
-        at: [0; EDGES_KEPT],
-        rose: 0,
-        seen: 0,
-    };
-
-    pub fn push(&mut self, at: Tick, rose: bool) {
-        let slot = (self.seen % EDGES_KEPT as u64) as usize;
-        self.at[slot] = at;
-        self.rose = self.rose & !(1 << slot) | u32::from(rose) << slot;
-        self.seen += 1;
-    }
-
-    /// Edges seen since reset: the next edge's number.
-    pub fn seen(&self) -> u64 {
-        self.seen
-    }
-
-    /// Edge `n`'s tick and whether the line rose there, while it is kept.
-    pub fn get(&self, n: u64) -> Option<(Tick, bool)> {
-        if n >= self.seen || self.seen - n > EDGES_KEPT as u64 {
-            return None;
-        }
-        let slot = (n % EDGES_KEPT as u64) as usize;
-        Some((self.at[slot], self.rose >> slot & 1 == 1))
-    }
-}
 
 /// One character's candidate starts, each read as it arrives by a reader of its own.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -436,27 +397,19 @@ impl EdgeRx {
         c.map(|c| (c, idle_before))
     }
 
-    /// After the search decided a character that started at `start` and ends at `end`, at
-    /// `now`: the receiver on its rate, which did not exist before, takes the line's edges
-    /// since the middle of that character's stop bit (its next character may have started
-    /// before the decision) from `edges`, the line's last edges.
-    pub fn catch_up(&self, start: Tick, end: Tick, now: Tick, edges: &LineEdges, q: &mut EdgeRxQ) {
-        q.ready_at = start + self.stop_middle;
-        // The edges since then, found from the newest back: a few at most.
-        let mut from = edges.seen();
-        while from > 0 && edges.get(from - 1).is_some_and(|(at, _)| at >= q.ready_at) {
-            from -= 1;
+    /// After the search decided, at `now`, a character that started at `start` and ends at
+    /// `end`: the receiver on its rate, which did not exist before, starts on this clock. A
+    /// fall on it, from the middle of that character's stop bit on, opens its next character;
+    /// a fall before `now` is not seen (README "Gateware": the search hands over no edges).
+    pub fn hand_over(&self, start: Tick, end: Tick, now: Tick, fell: bool, q: &mut EdgeRxQ) {
+        *q = EdgeRxQ {
+            ready_at: start + self.stop_middle,
+            read_until: now,
+            ..EDGE_RX_RESET
+        };
+        if fell {
+            self.on_edge(now, false, now.saturating_sub(end), q);
         }
-        q.read_until = q.ready_at;
-        for k in from..edges.seen() {
-            if let Some((at, rose)) = edges.get(k) {
-                self.on_edge(at, rose, at.saturating_sub(end), q);
-            }
-        }
-        let level = edges
-            .get(edges.seen().wrapping_sub(1))
-            .is_none_or(|(_, rose)| rose);
-        self.read_to(now, level, q);
     }
 }
 
@@ -612,17 +565,5 @@ mod tests {
             "{good} of {} taken as good",
             got.len()
         );
-    }
-
-    #[test]
-    fn edges_older_than_the_ring_are_gone() {
-        let mut edges = LineEdges::EMPTY;
-        for k in 0..40 {
-            edges.push(10 * k, k % 2 == 1);
-        }
-        assert_eq!(edges.get(7), None);
-        assert_eq!(edges.get(8), Some((80, false)));
-        assert_eq!(edges.get(39), Some((390, true)));
-        assert_eq!(edges.get(40), None);
     }
 }

@@ -32,7 +32,7 @@
 
 use crate::autobaud::{AutoBaud, AutoBaudQ, Detection, AUTOBAUD_RESET};
 use crate::delimiter::{Delimiter, Delivery, RxTelegram};
-use crate::edge_rx::{EdgeRx, EdgeRxQ, LineEdges, EDGE_RX_RESET};
+use crate::edge_rx::{EdgeRx, EdgeRxQ, EDGE_RX_RESET};
 use crate::filter::{self, FilterQ, FILTER_RESET};
 use crate::uart::{RxChar, UartTx};
 use crate::watchdog::Watchdog;
@@ -140,8 +140,6 @@ pub struct Transceiver {
     /// The synchroniser the search and the receiver share: the line in the clock domain.
     sync_q: FilterQ,
     search_q: AutoBaudQ,
-    /// The last edges of the synchronised line: the receiver takes its characters from them.
-    edges: LineEdges,
     /// The tick the trial under way started on: a detection of a character that began before
     /// it is of the trial's own start delimiter, at a slower rate.
     trial_since: Tick,
@@ -181,7 +179,6 @@ impl Transceiver {
             sync_q: FILTER_RESET,
             search_q: AUTOBAUD_RESET,
             trial_since: 0,
-            edges: LineEdges::EMPTY,
             fallback: None,
             last_end: 0,
             drove_until: 0,
@@ -321,7 +318,6 @@ impl Transceiver {
         let idle_before = if sf.fell { self.idle() } else { 0 };
         self.sync_q = sfq;
         if sf.fell || sf.rose {
-            self.edges.push(now, sf.rose);
             if let Some(rx) = &self.rx {
                 rx.on_edge(now, sf.rose, idle_before, &mut self.rx_q);
             }
@@ -334,7 +330,7 @@ impl Transceiver {
             None
         };
         let switched = match det {
-            Some(Ok(d)) => self.on_detection(&d, &mut out),
+            Some(Ok(d)) => self.on_detection(&d, sf.fell, &mut out),
             Some(Err(_)) => {
                 if self.rx.is_none() {
                     self.stats.search_rejects += 1;
@@ -383,9 +379,10 @@ impl Transceiver {
         out
     }
 
-    /// A start delimiter the search decoded: a trial at its rate, unless the receiver is on
-    /// that rate already. Returns whether the receiver was replaced.
-    fn on_detection(&mut self, d: &Detection, out: &mut TickOut) -> bool {
+    /// A start delimiter the search decoded (the line `fell` on this clock): a trial at its
+    /// rate, unless the receiver is on that rate already. Returns whether the receiver was
+    /// replaced.
+    fn on_detection(&mut self, d: &Detection, fell: bool, out: &mut TickOut) -> bool {
         match self.state {
             BaudState::Trial(b) | BaudState::Locked(b) if b == d.baud => return false,
             BaudState::Trial(_) if d.start <= self.trial_since => return false,
@@ -397,7 +394,7 @@ impl Transceiver {
         self.start_trial(d.baud, out);
         self.last_end = d.end;
         if let Some(rx) = self.rx {
-            rx.catch_up(d.start, d.end, self.now, &self.edges, &mut self.rx_q);
+            rx.hand_over(d.start, d.end, self.now, fell, &mut self.rx_q);
         }
         let c = RxChar {
             byte: d.byte,

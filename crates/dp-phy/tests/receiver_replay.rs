@@ -3,11 +3,14 @@
 //! replaced, kept here as the oracle (`edge_replay`: the line's last 32 edges, each candidate's
 //! bits by the level held longer, `uart::bits_by_longer_level`, at its decision), on seeded
 //! random lines at every rate with the search's hand-overs among them: the same characters,
-//! errors, starts, ends and idle times, and the same deadlines after every event.
+//! errors, starts, ends and idle times, and the same deadlines after every event. The oracle's
+//! own hand-over (`edge_replay::EdgeRx::hand_over`) is the search's as it is now: from the
+//! decision's clock on.
 
-use dp_phy::edge_rx::{self, LineEdges};
+use dp_phy::edge_rx;
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::{Baud, BitTiming, Tick};
+use edge_replay::LineEdges;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -16,12 +19,51 @@ use rand_chacha::ChaCha8Rng;
 /// paths: it replays the ring at each decision.
 #[allow(dead_code)]
 mod edge_replay {
-    use dp_phy::edge_rx::LineEdges;
     use dp_phy::uart::{bits_by_longer_level, glitches_off_grid, parity_bit, CharError, RxChar};
     use dp_phy::{BitTiming, Tick};
 
     const EDGES_KEPT: usize = 32;
     const MAX_GLITCHES: u32 = 2;
+
+    /// The line's last edges, a ring: each with its tick and whether the line rose (the ring
+    /// the receiver kept, edge_rx.rs at 863a53d).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    pub struct LineEdges {
+        at: [Tick; EDGES_KEPT],
+        /// Bit `i`: the edge in slot `i` was a rise.
+        rose: u32,
+        /// Edges since reset: edge `n` is in slot `n % EDGES_KEPT` while it is kept.
+        seen: u64,
+    }
+
+    impl LineEdges {
+        pub const EMPTY: LineEdges = LineEdges {
+            at: [0; EDGES_KEPT],
+            rose: 0,
+            seen: 0,
+        };
+
+        pub fn push(&mut self, at: Tick, rose: bool) {
+            let slot = (self.seen % EDGES_KEPT as u64) as usize;
+            self.at[slot] = at;
+            self.rose = self.rose & !(1 << slot) | u32::from(rose) << slot;
+            self.seen += 1;
+        }
+
+        /// Edges seen since reset: the next edge's number.
+        pub fn seen(&self) -> u64 {
+            self.seen
+        }
+
+        /// Edge `n`'s tick and whether the line rose there, while it is kept.
+        pub fn get(&self, n: u64) -> Option<(Tick, bool)> {
+            if n >= self.seen || self.seen - n > EDGES_KEPT as u64 {
+                return None;
+            }
+            let slot = (n % EDGES_KEPT as u64) as usize;
+            Some((self.at[slot], self.rose >> slot & 1 == 1))
+        }
+    }
 
     /// Registers of the receiver.
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -304,6 +346,27 @@ mod edge_replay {
                 }
             }
         }
+
+        /// The search's hand-over at `now` (new since 863a53d, as `edge_rx::EdgeRx::hand_over`
+        /// has it): the falls after the middle of the decided character's stop bit, as
+        /// `catch_up` takes them, but only those on the decision's clock.
+        pub fn hand_over(
+            &self,
+            start: Tick,
+            end: Tick,
+            now: Tick,
+            edges: &LineEdges,
+            q: &mut EdgeRxQ,
+        ) {
+            *q = EDGE_RX_RESET;
+            q.ready_at = start + self.stop_middle;
+            let newest = edges.seen().wrapping_sub(1);
+            if let Some((at, false)) = edges.get(newest) {
+                if at == now && at >= q.ready_at {
+                    self.on_fall(newest, at.saturating_sub(end), edges, q);
+                }
+            }
+        }
     }
 }
 
@@ -366,16 +429,9 @@ fn compare(seed: u64, baud: Baud, bits: u64) {
         if handover.next_if(|&h| h == now).is_some() {
             let start = now - rng.gen_range(10 * bit..12 * bit);
             let end = start + t.clocks_for(11, 1);
-            rq = edge_replay::EdgeRxQ {
-                ready_at: now,
-                ..edge_replay::EDGE_RX_RESET
-            };
-            q = edge_rx::EdgeRxQ {
-                ready_at: now,
-                ..edge_rx::EDGE_RX_RESET
-            };
-            replay.catch_up(start, end, &edges, &mut rq);
-            ours.catch_up(start, end, now, &edges, &mut q);
+            let fell = edges.get(edges.seen().wrapping_sub(1)) == Some((now, false));
+            replay.hand_over(start, end, now, &edges, &mut rq);
+            ours.hand_over(start, end, now, fell, &mut q);
         } else {
             if now >= rq.deadline {
                 want.extend(replay.act(now, line, &edges, &mut rq).map(|c| (now, c)));

@@ -96,8 +96,6 @@ pub struct EdgeRxQ {
     /// The middle of `cur`'s first candidate's stop bit once its candidates are final
     /// (`Tick::MAX` before).
     pub next_from: Tick,
-    /// A fall before this tick is in the last character's stop bit, no start.
-    pub ready_at: Tick,
     /// The readers have taken the line through this tick.
     pub read_until: Tick,
     /// `cur`'s deadline: the tick the receiver acts on next.
@@ -120,7 +118,6 @@ pub const EDGE_RX_RESET: EdgeRxQ = EdgeRxQ {
     cur: LANE_EMPTY,
     next: LANE_EMPTY,
     next_from: Tick::MAX,
-    ready_at: 0,
     read_until: 0,
     deadline: Tick::MAX,
 };
@@ -170,9 +167,9 @@ impl EdgeRx {
         let mut started = [None, None];
         if !rose {
             if q.next_from <= now {
-                started[1] = self.on_fall(&mut q.next, now, idle_before, 0);
+                started[1] = self.on_fall(&mut q.next, now, idle_before);
             } else {
-                started[0] = self.on_fall(&mut q.cur, now, idle_before, q.ready_at);
+                started[0] = self.on_fall(&mut q.cur, now, idle_before);
             }
         }
         for (lane, started) in [(&mut q.cur, started[0]), (&mut q.next, started[1])] {
@@ -188,22 +185,14 @@ impl EdgeRx {
         q.deadline = q.cur.deadline;
     }
 
-    /// A fall at `at` into `lane` (falls before `ready_at` start nothing). Returns the
-    /// candidate it starts, whose reader is to be started.
-    fn on_fall(
-        &self,
-        lane: &mut Lane,
-        at: Tick,
-        idle_before: Tick,
-        ready_at: Tick,
-    ) -> Option<usize> {
+    /// A fall at `at` into `lane`. Returns the candidate it starts, whose reader is to be
+    /// started. (A fall after the decision is past the middle of the last character's stop
+    /// bit, the decision's earliest tick: nothing bars it.)
+    fn on_fall(&self, lane: &mut Lane, at: Tick, idle_before: Tick) -> Option<usize> {
         if lane.stage == Stage::StartBit {
             self.drop_false_starts(lane);
         }
         if lane.n_starts == 0 {
-            if at < ready_at {
-                return None;
-            }
             *lane = Lane {
                 n_starts: 1,
                 starts: [at, at],
@@ -393,17 +382,20 @@ impl EdgeRx {
         q.cur.idle_before = q.cur.opened_at.saturating_sub(end);
         q.next = LANE_EMPTY;
         q.next_from = Tick::MAX;
-        q.ready_at = first_tick + self.stop_middle;
         c.map(|c| (c, idle_before))
     }
 
     /// After the search decided, at `now`, a character that started at `start` and ends at
     /// `end`: the receiver on its rate, which did not exist before, starts on this clock. A
-    /// fall on it, from the middle of that character's stop bit on, opens its next character;
-    /// a fall before `now` is not seen (README "Gateware": the search hands over no edges).
+    /// fall on it (the line `fell`) opens its next character; a fall before `now` is not seen
+    /// (README "Gateware": the search hands over no edges). The search decides at the middle
+    /// of the character's stop bit or later, so that fall is no part of it.
     pub fn hand_over(&self, start: Tick, end: Tick, now: Tick, fell: bool, q: &mut EdgeRxQ) {
+        debug_assert!(
+            start + self.stop_middle <= now,
+            "decided before its stop bit's middle"
+        );
         *q = EdgeRxQ {
-            ready_at: start + self.stop_middle,
             read_until: now,
             ..EDGE_RX_RESET
         };

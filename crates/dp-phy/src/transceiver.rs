@@ -476,7 +476,7 @@ impl Transceiver {
         self.tx = Some(UartTx::new(timing));
         self.pending_not_before = None;
         self.rx_q = EdgeRxQ {
-            ready_at: self.now,
+            read_until: self.now,
             ..EDGE_RX_RESET
         };
         // The delimiter keeps the telegram it delivered last: a failed trial's, read after this.

@@ -372,7 +372,7 @@ mod edge_replay {
 
 /// A random line at `baud`: runs of either level from a clock to three bits, bursts of
 /// glitches, and whole characters at the rate now and then; with the search's hand-overs at
-/// random ticks (a character decided by the search, which started 10 to 12 bits before).
+/// random ticks (a character decided by the search, which started 10.5 to 12 bits before).
 fn compare(seed: u64, baud: Baud, bits: u64) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let t = BitTiming::new(DEFAULT_CLOCK_HZ, baud, rng.gen_range(-5000..=5000));
@@ -427,7 +427,9 @@ fn compare(seed: u64, baud: Baud, bits: u64) {
             next_edge += 1;
         }
         if handover.next_if(|&h| h == now).is_some() {
-            let start = now - rng.gen_range(10 * bit..12 * bit);
+            // Decided at the middle of its stop bit or later, as the search decides.
+            let start =
+                now - rng.gen_range(ours.timing.clocks_for(21, 2)..=ours.timing.clocks_for(12, 1));
             let end = start + t.clocks_for(11, 1);
             let fell = edges.get(edges.seen().wrapping_sub(1)) == Some((now, false));
             replay.hand_over(start, end, now, &edges, &mut rq);

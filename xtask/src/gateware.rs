@@ -65,6 +65,7 @@ pub fn run(args: &[String]) -> Result<()> {
         search.clone(),
         blocks::autobaud(false),
         blocks::char_reader(blocks::run_time_width()),
+        blocks::edge_rx(),
         blocks::delimiter(),
         blocks::uart_tx(false),
         blocks::watchdog(blocks::baud_watchdog_width()),

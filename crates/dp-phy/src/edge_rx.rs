@@ -351,6 +351,9 @@ impl EdgeRx {
     fn decide(&self, level: bool, q: &mut EdgeRxQ) -> Option<(RxChar, Tick)> {
         let lane = &q.cur;
         let last = lane.n_starts as usize - 1;
+        // At the last candidate's stop bit: every reader is in its stop bit or past it (the
+        // gateware reads those two cases only).
+        debug_assert!(lane.readers[..=last].iter().all(|r| r.bit >= CHAR_BITS - 1));
         let first_read = self.read_char(&lane.readers[0], level);
         let (read, start) = if last == 0 {
             (first_read, 0)

@@ -6,9 +6,11 @@
 
 pub mod autobaud;
 mod char_reader;
+mod edge_rx;
 mod watchdog;
 pub use autobaud::{autobaud, autobaud_cases};
 pub use char_reader::{char_reader, char_reader_cases, run_time_width, width_of};
+pub use edge_rx::{edge_rx, edge_rx_cases};
 pub use watchdog::{baud_watchdog_width, dp_watchdog_width, watchdog, watchdog_cases};
 
 use crate::{Block, Case, Trace};
@@ -31,7 +33,7 @@ fn bits_for(n: u64) -> u32 {
 pub const TRANSCEIVER_BLOCKS: [(&str, bool); 8] = [
     ("line_sync (synchroniser)", true),
     ("autobaud", true),
-    ("edge_rx", false),
+    ("edge_rx", true),
     ("delimiter", true),
     ("uart_tx (min TSDR, driver enable)", true),
     ("watchdogs (baud, DP)", true),
@@ -253,6 +255,7 @@ fn status_code(status: Status) -> u8 {
     }
 }
 
+/// A character's error as delimiter.v (and edge_rx.v) code it.
 fn char_error_code(error: Option<CharError>) -> u8 {
     match error {
         None => 0,

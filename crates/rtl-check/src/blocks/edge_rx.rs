@@ -1,0 +1,402 @@
+//! The receiver (`gateware/rtl/edge_rx.v`) against `dp_phy::edge_rx::EdgeRx`, driven as the
+//! transceiver drives it: per clock, an edge (`on_edge`), then the search's hand-over or, at the
+//! deadline, `act`; a clear after it now and then (a rate dropped or changed). Lines at every
+//! rate: characters from a master up to 5,000 ppm off, back to back or apart, glitches of up
+//! to half a bit, runs of random length, and the search's hand-overs (at a rate that may change
+//! with them); ticks from near the 32-bit wrap in some cases.
+
+use crate::{Block, Case, Event, Trace};
+use dp_consts::Baud;
+use dp_phy::edge_rx::{EdgeRx, EdgeRxQ, EDGE_RX_RESET};
+use dp_phy::timing::DEFAULT_CLOCK_HZ;
+use dp_phy::uart::char_bits;
+use dp_phy::{BitTiming, Tick};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// The idle clocks the RTL keeps: 24 bits, saturating.
+const IDLE_MAX: u64 = (1 << 24) - 1;
+
+pub fn edge_rx() -> Block {
+    Block {
+        top: "edge_rx",
+        rtl: &["edge_rx.v", "edge_rx_drop.v", "char_reader_step.v"],
+        signals: &[
+            "active",
+            "char",
+            "stage0",
+            "stage1",
+            "next_active",
+            "next_from_valid",
+        ],
+        params: vec![("PhaseWidth", i64::from(super::run_time_width()))],
+        twin: "dp_phy::edge_rx::EdgeRx",
+        events: true,
+    }
+}
+
+/// The stimulus and the model, written together.
+struct RxCase {
+    rx: EdgeRx,
+    q: EdgeRxQ,
+    /// The model's tick of the next clock (the RTL's is this, truncated to 32 bits).
+    now: Tick,
+    line: bool,
+    stimulus: Vec<u8>,
+    trace: Trace,
+    events: Vec<Event>,
+    clock: u32,
+    last_lanes: [u32; 2],
+    seen: Seen,
+}
+
+/// What a case's model went through: the stimulus is worth as much as it makes the receiver do.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Seen {
+    /// Characters decided, by delimiter.v's error code.
+    pub chars: [u32; 5],
+    /// Clocks with two candidates in lane 0, and with lane 1 under way.
+    pub two_candidates: u32,
+    pub next_lane: u32,
+    /// Decisions at the stop bit's end (the line low at its middle).
+    pub stop_end: u32,
+    /// Hand-overs with a fall on their clock, and without.
+    pub hand_overs_falling: u32,
+    pub hand_overs: u32,
+    pub clears: u32,
+}
+
+impl RxCase {
+    fn new(baud: Baud, now: Tick) -> RxCase {
+        let mut case = RxCase {
+            rx: EdgeRx::new(BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud)),
+            q: EDGE_RX_RESET,
+            now,
+            line: true,
+            stimulus: Vec::new(),
+            trace: Trace::default(),
+            events: Vec::new(),
+            clock: 0,
+            last_lanes: [u32::MAX; 2],
+            seen: Seen::default(),
+        };
+        case.stimulus.push(b'N');
+        case.stimulus.extend_from_slice(&(now as u32).to_le_bytes());
+        case.use_rate(baud);
+        case
+    }
+
+    /// The rate's figures from the next clock on (the model's receiver for it).
+    fn use_rate(&mut self, baud: Baud) {
+        let timing = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud);
+        self.rx = EdgeRx::new(timing);
+        let r = dp_phy::char_reader::CharReader::new(timing);
+        self.stimulus.push(b'T');
+        for figure in [
+            r.inc,
+            r.modulo,
+            r.quarter,
+            r.three_quarters,
+            r.half_less_inc,
+            r.two_inc,
+            r.modulo_less_inc,
+            r.modulo_less_two_inc,
+            timing.clocks_for(1, 1),
+            timing.clocks_for(21, 2),
+            timing.clocks_for(11, 1),
+        ] {
+            self.stimulus
+                .extend_from_slice(&(figure as u32).to_le_bytes());
+        }
+    }
+
+    /// One clock of the model as the transceiver ticks it, and what the harness records.
+    fn tick(&mut self, level: bool, idle: Tick, hand_over: Option<Tick>, clear: bool) {
+        let now = self.now;
+        if level != self.line {
+            self.rx.on_edge(now, level, idle, &mut self.q);
+        }
+        let fell = self.line && !level;
+        self.line = level;
+        let mut got = None;
+        let seen = &mut self.seen;
+        seen.two_candidates += u32::from(self.q.cur.n_starts == 2);
+        seen.next_lane += u32::from(self.q.next.n_starts > 0);
+        if hand_over.is_some() {
+            seen.hand_overs += 1;
+            seen.hand_overs_falling += u32::from(fell);
+        }
+        seen.clears += u32::from(clear);
+        if now >= self.q.deadline && self.q.cur.stage == dp_phy::edge_rx::Stage::StopEnd {
+            seen.stop_end += 1;
+        }
+        if let Some(end) = hand_over {
+            // The search decided a character ending at `end`, which began 11 bits before it.
+            let start = end - self.rx.timing.clocks_for(11, 1);
+            self.rx.hand_over(start, end, now, fell, &mut self.q);
+        } else if now >= self.q.deadline {
+            got = self.rx.act(now, level, &mut self.q);
+        }
+        if clear {
+            self.q = EdgeRxQ {
+                read_until: now,
+                ..EDGE_RX_RESET
+            };
+        }
+        let stage = self.q.cur.stage as u8;
+        self.trace.push(
+            u8::from(self.q.active())
+                | u8::from(got.is_some()) << 1
+                | stage << 2
+                | u8::from(self.q.next.n_starts > 0) << 4
+                | u8::from(self.q.next_from != Tick::MAX) << 5,
+        );
+        let lanes = [
+            if self.q.active() {
+                self.q.cur.deadline as u32
+            } else {
+                u32::MAX
+            },
+            if self.q.next_from != Tick::MAX {
+                self.q.next_from as u32
+            } else {
+                u32::MAX
+            },
+        ];
+        if got.is_some() || lanes != self.last_lanes {
+            let mut payload = Vec::new();
+            match got {
+                Some((c, idle_before)) => {
+                    self.seen.chars[usize::from(super::char_error_code(c.error))] += 1;
+                    payload.extend_from_slice(&[c.byte, super::char_error_code(c.error)]);
+                    payload.extend_from_slice(&(c.start as u32).to_le_bytes());
+                    payload.extend_from_slice(&(c.end as u32).to_le_bytes());
+                    payload.extend_from_slice(&(idle_before.min(IDLE_MAX) as u32).to_le_bytes());
+                }
+                None => payload.extend_from_slice(&[0; 14]),
+            }
+            for lane in lanes {
+                payload.extend_from_slice(&lane.to_le_bytes());
+            }
+            self.events.push(Event {
+                clock: self.clock,
+                payload,
+            });
+            self.last_lanes = lanes;
+        }
+        self.clock += 1;
+        self.now += 1;
+    }
+
+    /// `n` clocks with the line held where it is.
+    fn hold(&mut self, n: u64) {
+        let mut n = n;
+        while n > 0 {
+            let run = n.min(u64::from(u32::MAX)) as u32;
+            self.stimulus.push(b'L');
+            self.stimulus.push(u8::from(self.line));
+            self.stimulus.extend_from_slice(&run.to_le_bytes());
+            for _ in 0..run {
+                self.tick(self.line, 0, None, false);
+            }
+            n -= u64::from(run);
+        }
+    }
+
+    /// One clock with the line at `level`, a fall's idle clocks before it, the search's
+    /// hand-over of a character ending at `hand_over`, a clear.
+    fn special(&mut self, level: bool, idle: Tick, hand_over: Option<Tick>, clear: bool) {
+        self.stimulus.push(b'K');
+        self.stimulus
+            .push(u8::from(level) | u8::from(hand_over.is_some()) << 1 | u8::from(clear) << 2);
+        self.stimulus
+            .extend_from_slice(&(idle.min(IDLE_MAX) as u32).to_le_bytes());
+        self.stimulus
+            .extend_from_slice(&(hand_over.unwrap_or(0) as u32).to_le_bytes());
+        self.tick(level, idle, hand_over, clear);
+    }
+
+    /// The line changes to `level` on the next clock.
+    fn edge(&mut self, level: bool, rng: &mut ChaCha8Rng) {
+        // The idle before a fall, as the transceiver counts it: any figure, past the RTL's 24
+        // bits now and then.
+        let idle = match rng.gen_range(0..4) {
+            0 => 0,
+            1 => rng.gen_range(0..200_000),
+            2 => rng.gen_range(0..IDLE_MAX + 1000),
+            _ => rng.gen_range(0..1 << 40),
+        };
+        self.special(level, idle, None, false);
+    }
+
+    fn finish(self, name: String) -> Case {
+        Case {
+            name,
+            stimulus: self.stimulus,
+            model: self.trace,
+            model_events: self.events,
+        }
+    }
+}
+
+/// A random line at `baud` for about `bits` of its bits: characters from a master `ppm` off,
+/// back to back or apart, with glitches now and then; random runs; hand-overs (some at another
+/// rate) and clears.
+fn random_line(case: &mut RxCase, rng: &mut ChaCha8Rng, baud: Baud, bits: u64) {
+    let mut baud = baud;
+    let mut bit = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud).clocks_per_bit();
+    let end = case.now + bits * bit;
+    while case.now < end {
+        match rng.gen_range(0..10) {
+            0..=4 => {
+                // A character or a few back to back, at the master's rate.
+                let master = BitTiming::new(DEFAULT_CLOCK_HZ, baud, rng.gen_range(-5000..=5000));
+                for _ in 0..rng.gen_range(1..4) {
+                    let byte: u8 = rng.gen();
+                    let levels = char_bits(byte);
+                    let mut toggles: Vec<(u64, bool)> = Vec::new();
+                    let mut level = case.line;
+                    for (i, &b) in levels.iter().enumerate() {
+                        if b != level {
+                            toggles.push((master.clocks_for(i as u64, 1), b));
+                            level = b;
+                        }
+                    }
+                    let length = master.clocks_for(11, 1);
+                    // Glitches of up to half a bit now and then.
+                    if rng.gen_bool(0.4) {
+                        for _ in 0..rng.gen_range(1..3) {
+                            let at = rng.gen_range(1..length);
+                            let len = rng.gen_range(1..=bit / 2 + 1);
+                            toggles.push((at, true));
+                            toggles.push((at + len, true));
+                        }
+                    }
+                    toggles.sort_by_key(|t| t.0);
+                    // The glitches' toggles flip the level the character holds there.
+                    let mut edges: Vec<u64> = Vec::new();
+                    for (at, _) in &toggles {
+                        if edges.last() == Some(at) {
+                            edges.pop();
+                        } else {
+                            edges.push(*at);
+                        }
+                    }
+                    let start = case.now;
+                    let first = case.line;
+                    let mut level = first;
+                    let mut at = 0;
+                    if first {
+                        // The start edge.
+                        case.edge(false, rng);
+                        level = false;
+                        at = 1;
+                    }
+                    for e in edges.into_iter().filter(|&e| e >= at) {
+                        case.hold(e - (case.now - start));
+                        level = !level;
+                        case.edge(level, rng);
+                    }
+                    let done = start + length;
+                    if case.now < done {
+                        case.hold(done - case.now);
+                    }
+                    if !case.line {
+                        case.edge(true, rng);
+                    }
+                    case.hold(rng.gen_range(0..bit / 2 + 1));
+                }
+                case.hold(rng.gen_range(0..3 * bit));
+            }
+            5..=7 => {
+                // A run of either level.
+                let level = !case.line;
+                case.edge(level, rng);
+                case.hold(rng.gen_range(0..3 * bit));
+            }
+            8 => {
+                // The search's hand-over, now and then at another rate, on a clock with a fall
+                // or not.
+                if rng.gen_bool(0.3) {
+                    baud = Baud::ALL[rng.gen_range(0..Baud::ALL.len())];
+                    bit = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud).clocks_per_bit();
+                    case.use_rate(baud);
+                }
+                let level = if rng.gen_bool(0.5) {
+                    !case.line
+                } else {
+                    case.line
+                };
+                let end = case.now - rng.gen_range(0..bit);
+                case.special(level, 0, Some(end), false);
+                case.hold(rng.gen_range(0..bit));
+            }
+            _ => {
+                // A clear (a trial failed, the rate dropped): at a random clock.
+                let level = if rng.gen_bool(0.2) {
+                    !case.line
+                } else {
+                    case.line
+                };
+                case.special(level, rng.gen_range(0..1000), None, true);
+                case.hold(rng.gen_range(0..2 * bit));
+            }
+        }
+    }
+    case.hold(14 * bit);
+}
+
+/// At every rate: random lines (a few from ticks near the 32-bit wrap).
+pub fn edge_rx_cases(quick: bool) -> Vec<Case> {
+    cases_seen(quick).0
+}
+
+/// The cases, and what their model went through altogether.
+fn cases_seen(quick: bool) -> (Vec<Case>, Seen) {
+    let mut all = Seen::default();
+    let mut rng = ChaCha8Rng::seed_from_u64(27);
+    let runs = if quick { 1 } else { 4 };
+    let mut cases = Vec::new();
+    for baud in Baud::ALL {
+        for run in 0..runs {
+            let start: Tick = if run % 2 == 1 {
+                (1 << 32) - rng.gen_range(1000..200_000)
+            } else {
+                rng.gen_range(20_000..1 << 31)
+            };
+            let mut case = RxCase::new(baud, start);
+            case.hold(rng.gen_range(1..1000));
+            random_line(&mut case, &mut rng, baud, if quick { 400 } else { 1500 });
+            let s = case.seen;
+            for (total, n) in all.chars.iter_mut().zip(s.chars) {
+                *total += n;
+            }
+            all.two_candidates += s.two_candidates;
+            all.next_lane += s.next_lane;
+            all.stop_end += s.stop_end;
+            all.hand_overs_falling += s.hand_overs_falling;
+            all.hand_overs += s.hand_overs;
+            all.clears += s.clears;
+            cases.push(case.finish(format!("edge_rx-{baud}-{run}")));
+        }
+    }
+    (cases, all)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The quick set makes the receiver do all it does: every kind of character, two
+    /// candidates, the next lane, decisions at the stop bit's end, hand-overs with and without
+    /// a fall, clears.
+    #[test]
+    fn the_quick_cases_cover_the_receiver() {
+        let (_, seen) = cases_seen(true);
+        println!("{seen:?}");
+        assert!(seen.chars.iter().all(|&n| n > 0), "{seen:?}");
+        assert!(seen.two_candidates > 0 && seen.next_lane > 0 && seen.stop_end > 0);
+        assert!(seen.hand_overs_falling > 0 && seen.hand_overs > seen.hand_overs_falling);
+        assert!(seen.clears > 0);
+    }
+}

@@ -1,0 +1,117 @@
+// edge_rx under the stimulus of crates/rtl-check (`rtl_check::blocks::edge_rx`).
+//
+// Records: 'T' u32 inc, modulo, quarter, three_quarters, half_less_inc, two_inc,
+// modulo_less_inc, modulo_less_two_inc, start_end, stop_middle, stop_end (the rate's figures,
+// held); 'N' u32 (now_i of the next clock; it counts up a clock at a time); 'L' u8 level, u32 n
+// (n clocks, the line held at level: no edge); 'K' u8 flags (bit 0 the line's level, an edge
+// if it changed; bit 1 hand_over_i; bit 2 clear_i), u32 idle_before, u32 hand_over_end (one
+// clock). Outputs each clock after its edge: bit 0 active_o, bit 1 char_o (of that clock),
+// bits 2-3 stage_o, bit 4 next_active_o, bit 5 next_from_valid_o. An event on each clock with
+// a character or a change of lane 0's deadline or next_from: the character (u8 byte, u8 error,
+// u32 start, end, idle before; zeros with none), the deadline and next_from (u32 each, all ones
+// with none).
+#include <memory>
+
+#include "Vedge_rx.h"
+#include "harness.h"
+#include "verilated.h"
+
+namespace {
+using harness::put;
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 4) harness::fail("usage: check <stimulus> <outputs> <events>");
+  harness::Stimulus in(argv[1]);
+  harness::Outputs out(argv[2]);
+  harness::Events events(argv[3]);
+  auto ctx = std::make_unique<VerilatedContext>();
+  auto top = std::make_unique<Vedge_rx>(ctx.get());
+  uint32_t clock_n = 0;
+  uint8_t line = 1;
+  std::vector<uint8_t> last_lanes;
+  auto clock = [&](uint8_t level, bool hand_over, bool clear, uint32_t idle, uint32_t end) {
+    top->level_i = level;
+    top->edge_i = level != line;
+    top->hand_over_i = hand_over;
+    top->clear_i = clear;
+    top->idle_before_i = idle;
+    top->hand_over_end_i = end;
+    line = level;
+    // The character is this clock's: read it before the edge commits it.
+    top->clk_i = 0;
+    top->eval();
+    bool got = top->char_o;
+    std::vector<uint8_t> character;
+    character.push_back(got ? top->char_byte_o : 0);
+    character.push_back(got ? top->char_error_o : 0);
+    put(character, got ? top->char_start_o : 0, 4);
+    put(character, got ? top->char_end_o : 0, 4);
+    put(character, got ? top->char_idle_before_o : 0, 4);
+    top->clk_i = 1;
+    top->eval();
+    top->now_i = top->now_i + 1;
+    top->clk_i = 0;
+    top->eval();
+    out.clock(static_cast<uint8_t>(top->active_o | (got << 1) | (top->stage_o << 2) |
+                                   (top->next_active_o << 4) | (top->next_from_valid_o << 5)));
+    std::vector<uint8_t> lanes;
+    put(lanes, top->active_o ? top->deadline_o : 0xFFFFFFFFu, 4);
+    put(lanes, top->next_from_valid_o ? top->next_from_o : 0xFFFFFFFFu, 4);
+    if (got || lanes != last_lanes) {
+      std::vector<uint8_t> payload = character;
+      payload.insert(payload.end(), lanes.begin(), lanes.end());
+      events.record(clock_n, payload);
+      last_lanes = lanes;
+    }
+    clock_n++;
+  };
+  top->clk_i = 0;
+  top->now_i = 0;
+  top->level_i = 1;
+  top->edge_i = 0;
+  top->hand_over_i = 0;
+  top->clear_i = 0;
+  harness::reset(*top);
+  {
+    // The lanes as reset leaves them: what the first clock is compared with.
+    put(last_lanes, 0xFFFFFFFFu, 4);
+    put(last_lanes, 0xFFFFFFFFu, 4);
+  }
+  for (int op; (op = in.op()) >= 0;) {
+    switch (op) {
+      case 'T':
+        top->inc_i = in.u32();
+        top->modulo_i = in.u32();
+        top->quarter_i = in.u32();
+        top->three_quarters_i = in.u32();
+        top->half_less_inc_i = in.u32();
+        top->two_inc_i = in.u32();
+        top->modulo_less_inc_i = in.u32();
+        top->modulo_less_two_inc_i = in.u32();
+        top->start_end_i = in.u32();
+        top->stop_middle_i = in.u32();
+        top->stop_end_i = in.u32();
+        break;
+      case 'N':
+        top->now_i = in.u32();
+        break;
+      case 'L': {
+        uint8_t level = in.u8();
+        for (uint32_t n = in.u32(); n > 0; n--) clock(level, false, false, 0, 0);
+        break;
+      }
+      case 'K': {
+        uint8_t flags = in.u8();
+        uint32_t idle = in.u32();
+        uint32_t end = in.u32();
+        clock(flags & 1, flags & 2, flags & 4, idle, end);
+        break;
+      }
+      default:
+        harness::fail("unknown record");
+    }
+  }
+  top->final();
+  return 0;
+}

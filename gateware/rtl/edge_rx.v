@@ -8,36 +8,39 @@
 // due (its deadline reached), which may decide a character (char_o and its fields, this
 // clock). hand_over_i is the search's hand-over of this clock instead (EdgeRx::hand_over: the
 // receiver starts afresh, with this clock's fall; hand_over_end_i is the detected character's
-// end), clear_i the transceiver's reset of it after everything else (a rate dropped or changed).
+// end, its low TickWidth bits), clear_i the transceiver's reset of it after everything else (a rate dropped or changed).
 //
-// Two lanes of two candidates: lane 0 the character under way (the model's cur), lane 1 the next
-// one (next), whose candidates the falls from next_from on open while lane 0's decision is
-// pending. Each candidate has a character reader (char_reader_step, 13-bit phase at the rate
-// chosen at run time, its figures as inputs) and its start bit as its reader decided it.
+// Two lanes of two slots: the lane cur_q the character under way, the other the next one, whose
+// candidates the falls from next_from on open while the current one's decision is pending; at
+// the decision they swap roles. A slot holds a candidate's start tick, its character reader
+// (char_reader_step, 13-bit phase at the rate chosen at run time, its figures as inputs) and its
+// start bit as the reader decided it; live_q marks the slots under way and first_q the earlier
+// one. Nothing moves between slots or lanes: a reader is started in a free slot and left there.
 //
-// What changed for hardware: ticks are 32 bits (the model's u64 truncated; every tick compared
-// is within a character of now, so a signed difference orders them across the wrap); the idle
-// clocks are 24 bits, saturating (TSYN at 9.6k is 165,000 clocks); a lane's deadline is valid
-// while it has candidates (the model's Tick::MAX otherwise).
+// What changed for hardware: ticks are TickWidth bits (the model's u64 truncated to 18: every
+// tick kept is within two characters of now at 9.6k, so a signed difference orders them; the
+// character's start and end go out as 32-bit ticks, now_i's); the idle clocks are 24 bits,
+// saturating (TSYN at 9.6k is 165,000 clocks); a lane's deadline is valid while it has
+// candidates (the model's Tick::MAX otherwise); a free slot's reader runs on, its registers no
+// one's until a start (the model holds them); the receiver's own timing is whole clocks, so
+// every reader's phase step (the model's inc) is 1.
 `default_nettype none
 
 module edge_rx #(
   parameter int PhaseWidth  = 13,
-  parameter int TickWidth   = 32,
+  parameter int TickWidth   = 18,
   parameter int IdleWidth   = 24,
   parameter int OffsetWidth = 16
 ) (
   input  wire                   clk_i,
   input  wire                   rst_ni,
-  input  wire [TickWidth-1:0]   now_i,
-  // The rate's CharReader figures (char_reader.v's), and the clocks from a start edge to the
-  // end of its start bit, the middle of its stop bit and its end.
-  input  wire [PhaseWidth-1:0]  inc_i,
+  input  wire [31:0]            now_i,
+  // The rate's CharReader figures (char_reader.v's; inc is 1), and the clocks from a start
+  // edge to the end of its start bit, the middle of its stop bit and its end.
   input  wire [PhaseWidth-1:0]  modulo_i,
   input  wire [PhaseWidth-1:0]  quarter_i,
   input  wire [PhaseWidth-1:0]  three_quarters_i,
   input  wire [PhaseWidth-1:0]  half_less_inc_i,
-  input  wire [PhaseWidth:0]    two_inc_i,
   input  wire [PhaseWidth-1:0]  modulo_less_inc_i,
   input  wire [PhaseWidth-1:0]  modulo_less_two_inc_i,
   input  wire [OffsetWidth-1:0] start_end_i,
@@ -54,13 +57,14 @@ module edge_rx #(
   output logic                  char_o,
   output logic [7:0]            char_byte_o,
   output logic [2:0]            char_error_o,
-  output logic [TickWidth-1:0]  char_start_o,
-  output logic [TickWidth-1:0]  char_end_o,
+  output logic [31:0]           char_start_o,
+  output logic [31:0]           char_end_o,
   output logic [IdleWidth-1:0]  char_idle_before_o,
   // A character under way (EdgeRxQ::active), after the last clock and as this clock leaves it.
   output wire                   active_o,
   output wire                   active_next_o,
-  // For the checker: lane 0's deadline and stage, lane 1 under way, next_from.
+  // For the checker: the current lane's deadline and stage, the next lane under way,
+  // next_from (ticks of TickWidth bits).
   output wire [TickWidth-1:0]   deadline_o,
   output wire [1:0]             stage_o,
   output wire                   next_active_o,
@@ -78,13 +82,15 @@ module edge_rx #(
   localparam int ShiftAt    = PW + 4;
   localparam int LagAt      = PW + 15;
   localparam int LeadAt     = 2 * PW + 16;
+  localparam int RemAt      = 3 * PW + 17;
   localparam int BitAt      = 4 * PW + 17;
   localparam logic [RW-1:0] ReaderReset = {4'd11, (RW - 4)'(0)};
   localparam logic [1:0] StartBit = 2'd0, StopMiddle = 2'd1, StopEnd = 2'd2;
 
-  // The lanes' registers, flat: lane l's field at [l * width +: width], candidate s of lane l
-  // at [(2 * l + s) * width +: width].
-  logic [3:0]      n_q, n_d;            // candidates under way, 0..2
+  // Per lane l, flat: the lane's field at [l * width +: width], slot s of lane l at
+  // [(2 * l + s) * width +: width].
+  logic [3:0]      live_q, live_d;
+  logic [1:0]      first_q, first_d;
   logic [4*TW-1:0] starts_q, starts_d;
   logic [4*RW-1:0] readers_q, readers_d;
   logic [3:0]      start_low_q, start_low_d;
@@ -92,183 +98,207 @@ module edge_rx #(
   logic [2*IW-1:0] idle_q, idle_d;
   logic [3:0]      stage_q, stage_d;
   logic [2*TW-1:0] deadline_q, deadline_d;
+  logic            cur_q, cur_d;
   logic [TW-1:0]   next_from_q, next_from_d;
   logic            next_from_valid_q, next_from_valid_d;
+
+  logic [TW-1:0] now;
+  assign now = now_i[TW-1:0];
 
   // The idle clocks from `from` to `to`: 0 if `to` comes first, saturating at IdleWidth bits.
   function automatic logic [IW-1:0] idle_between(input logic [TW-1:0] from, to);
     logic [TW-1:0] diff;
     diff = to - from;
     if (diff[TW-1]) idle_between = {IW{1'b0}};
-    else if (diff > TW'({IW{1'b1}})) idle_between = {IW{1'b1}};
-    else idle_between = diff[IW-1:0];
+    else idle_between = IW'(diff);
   endfunction
 
   // `at` is now or before it.
   function automatic logic reached(input logic [TW-1:0] at);
     logic [TW-1:0] diff;
-    diff = now_i - at;
+    diff = now - at;
     reached = !diff[TW-1];
   endfunction
 
-  // ---- on_edge: the fall's lane drops its false starts and opens a candidate; every reader
-  // under way takes the clock. ----
+  // `at` is the next clock or before it.
+  function automatic logic reached_next(input logic [TW-1:0] at);
+    logic [TW-1:0] diff;
+    diff = now + TW'(1) - at;
+    reached_next = !diff[TW-1];
+  endfunction
+
+  // ---- on_edge: the fall's lane drops its false starts and opens a candidate in a free
+  // slot; every reader takes the clock. ----
   logic       fell, fall_next;
   logic [1:0] fall_here;
-  // Each lane after the fall's drop and its candidate opened.
-  logic [3:0]      n_b;
+  logic [1:0] keep, slot_live;
+  logic       first_slot, second_slot, last_slot;
+  logic [3:0] live_b;
+  logic [1:0] first_b;
   logic [4*TW-1:0] starts_b;
-  logic [4*RW-1:0] readers_b;
   logic [3:0]      start_low_b;
   logic [2*TW-1:0] opened_b;
   logic [2*IW-1:0] idle_b;
   logic [3:0]      stage_b;
   logic [2*TW-1:0] deadline_b;
-  logic [3:0]      start_reader, step_reader;
-  // Each lane's drop as a fall finds it (the readers through the clock before).
-  logic [3:0]      n_dropped;
-  logic [4*TW-1:0] starts_dropped;
-  logic [4*RW-1:0] readers_dropped;
-  logic [3:0]      start_low_dropped;
-  // The readers after this clock, and each candidate's start bit as it now stands.
+  logic [3:0]      start_reader;
   logic [4*RW-1:0] readers_c;
-  logic [3:0]      start_low_c;
-
-  for (genvar l = 0; l < 2; l++) begin : g_lane_drop
-    edge_rx_drop #(.ReaderWidth(RW), .TickWidth(TW)) u_drop (
-      .n_i(n_q[2*l +: 2]),
-      .starts_i(starts_q[2*l*TW +: 2*TW]),
-      .readers_i(readers_q[2*l*RW +: 2*RW]),
-      .start_low_i(start_low_q[2*l +: 2]),
-      .n_o(n_dropped[2*l +: 2]),
-      .starts_o(starts_dropped[2*l*TW +: 2*TW]),
-      .readers_o(readers_dropped[2*l*RW +: 2*RW]),
-      .start_low_o(start_low_dropped[2*l +: 2])
-    );
-  end
+  logic [3:0]      start_low_c, start_ends, start_over;
 
   always_comb begin
     fell         = edge_i && !level_i;
-    // From the middle of lane 0's first candidate's stop bit on, falls open the next character.
+    // From the middle of the current first candidate's stop bit on, falls open the next one.
     fall_next    = next_from_valid_q && reached(next_from_q);
-    fall_here[0] = fell && !fall_next;
-    fall_here[1] = fell && fall_next;
-    n_b          = n_q;
+    // The lane the fall goes to: the current one, or the other from next_from on.
+    fall_here[0] = fell && (cur_q == fall_next);
+    fall_here[1] = fell && (cur_q != fall_next);
+    live_b       = live_q;
+    first_b      = first_q;
     starts_b     = starts_q;
-    readers_b    = readers_q;
     start_low_b  = start_low_q;
     opened_b     = opened_q;
     idle_b       = idle_q;
     stage_b      = stage_q;
     deadline_b   = deadline_q;
     start_reader = '0;
+    keep         = '0;
+    slot_live    = '0;
+    first_slot   = 1'b0;
+    second_slot  = 1'b0;
+    last_slot    = 1'b0;
     for (int l = 0; l < 2; l++) begin
-      if (fall_here[l] && stage_q[2*l +: 2] == StartBit) begin
-        n_b[2*l +: 2]              = n_dropped[2*l +: 2];
-        starts_b[2*l*TW +: 2*TW]   = starts_dropped[2*l*TW +: 2*TW];
-        readers_b[2*l*RW +: 2*RW]  = readers_dropped[2*l*RW +: 2*RW];
-        start_low_b[2*l +: 2]      = start_low_dropped[2*l +: 2];
-        // The last candidate kept, at the end of its start bit.
-        deadline_b[l*TW +: TW] = (n_dropped[2*l +: 2] == 2'd2
-            ? starts_dropped[(2*l+1)*TW +: TW] : starts_dropped[2*l*TW +: TW])
-            + TW'(start_end_i);
-      end
       if (fall_here[l]) begin
-        if (n_b[2*l +: 2] == 2'd0) begin
-          // The first candidate of a character (the model's lane from LANE_EMPTY).
-          n_b[2*l +: 2]                  = 2'd1;
-          starts_b[2*l*TW +: 2*TW]       = {now_i, now_i};
-          readers_b[(2*l+1)*RW +: RW]    = ReaderReset;
-          start_low_b[2*l +: 2]          = 2'b00;
-          opened_b[l*TW +: TW]           = now_i;
-          idle_b[l*IW +: IW]             = idle_before_i;
-          stage_b[2*l +: 2]              = StartBit;
-          deadline_b[l*TW +: TW]         = now_i + TW'(start_end_i);
-          start_reader[2*l]              = 1'b1;
-        end else if (readers_b[2*l*RW + BitAt +: 4] == 4'd0) begin
-          // Inside the first candidate's start bit: a second candidate (a later one replaces it).
-          n_b[2*l +: 2]                  = 2'd2;
-          starts_b[(2*l+1)*TW +: TW]     = now_i;
-          start_low_b[2*l+1]             = 1'b0;
-          stage_b[2*l +: 2]              = StartBit;
-          deadline_b[l*TW +: TW]         = now_i + TW'(start_end_i);
-          start_reader[2*l+1]            = 1'b1;
+        first_slot = first_q[l];
+        if (stage_q[2*l +: 2] == StartBit) begin
+          // The false starts: start bit decided on an earlier clock, and not low.
+          for (int s = 0; s < 2; s++) begin
+            keep[s] = live_q[2*l+s] && (readers_q[(2*l+s)*RW + BitAt +: 4] == 4'd0
+                                        || start_low_q[2*l+s]);
+          end
+          live_b[2*l +: 2] = keep;
+          if (!keep[first_q[l]] && keep[!first_q[l]]) first_slot = !first_q[l];
+          first_b[l] = first_slot;
+          // The last candidate kept, at the end of its start bit.
+          last_slot = keep[!first_slot] ? !first_slot : first_slot;
+          deadline_b[l*TW +: TW] = starts_q[(2*l + int'(last_slot))*TW +: TW]
+                                 + TW'(start_end_i);
+        end
+        slot_live = live_b[2*l +: 2];
+        if (slot_live == 2'b00) begin
+          // The first candidate of a character, in slot 0.
+          live_b[2*l +: 2]         = 2'b01;
+          first_b[l]               = 1'b0;
+          starts_b[2*l*TW +: TW]   = now;
+          start_low_b[2*l]         = 1'b0;
+          opened_b[l*TW +: TW]     = now;
+          idle_b[l*IW +: IW]       = idle_before_i;
+          stage_b[2*l +: 2]        = StartBit;
+          deadline_b[l*TW +: TW]   = now + TW'(start_end_i);
+          start_reader[2*l]        = 1'b1;
+        end else if (readers_q[(2*l + int'(first_slot))*RW + BitAt +: 4] == 4'd0) begin
+          // Inside the first candidate's start bit: a second candidate in the other slot (a
+          // later one replaces it).
+          second_slot                        = !first_slot;
+          live_b[2*l + int'(second_slot)]          = 1'b1;
+          starts_b[(2*l + int'(second_slot))*TW +: TW] = now;
+          start_low_b[2*l + int'(second_slot)]     = 1'b0;
+          stage_b[2*l +: 2]                  = StartBit;
+          deadline_b[l*TW +: TW]             = now + TW'(start_end_i);
+          start_reader[2*l + int'(second_slot)]    = 1'b1;
         end
       end
-      for (int s = 0; s < 2; s++) step_reader[2*l+s] = 2'(s) < n_b[2*l +: 2];
     end
+    if (hand_over_i && fell) start_reader[0] = 1'b1;
   end
 
   for (genvar k = 0; k < 4; k++) begin : g_reader
+    // A free slot's reader runs on: it is started before its slot is live again.
     char_reader_step #(.PhaseWidth(PW)) u_step (
-      .inc_i, .modulo_i, .quarter_i, .three_quarters_i, .half_less_inc_i, .two_inc_i,
-      .modulo_less_inc_i, .modulo_less_two_inc_i,
-      .step_i(step_reader[k]),
+      .inc_i(PW'(1)), .modulo_i, .quarter_i, .three_quarters_i, .half_less_inc_i,
+      .two_inc_i((PW + 1)'(2)), .modulo_less_inc_i, .modulo_less_two_inc_i,
+      .step_i(1'b1),
       .start_i(start_reader[k]),
       .level_i,
       .edge_i,
-      .state_i(readers_b[k*RW +: RW]),
+      .state_i(readers_q[k*RW +: RW]),
       .state_o(readers_c[k*RW +: RW])
     );
-    // A start bit decided on this clock: low, and no tie.
-    assign start_low_c[k] =
-        !start_reader[k] && step_reader[k] && readers_b[k*RW + BitAt +: 4] == 4'd0
-        && readers_c[k*RW + BitAt +: 4] == 4'd1
-        ? !readers_c[k*RW + TieAt] && !readers_c[k*RW + ShiftAt + 10]
+    // From the registers, not through the step's adders: the start bit ends on this clock
+    // (its phase left is one clock's), and how it is decided (the sign of its balance with
+    // this clock's level: low, and no tie, when negative).
+    assign start_ends[k] = !start_reader[k] && readers_q[k*RW + BitAt +: 4] == 4'd0
+                         && readers_q[k*RW + RemAt +: PW] <= PW'(1);
+    assign start_over[k] = !start_reader[k]
+                         && (readers_q[k*RW + BitAt +: 4] != 4'd0 || start_ends[k]);
+    assign start_low_c[k] = start_ends[k]
+        ? (level_i ? readers_q[k*RW + LeadAt + PW] : readers_q[k*RW + LagAt + PW])
         : start_low_b[k];
   end
 
-  // ---- act: lane 0 at its deadline. ----
-  logic [1:0]      n_act;
-  logic [2*TW-1:0] starts_act;
-  logic [2*RW-1:0] readers_act;
-  logic [1:0]      start_low_act;
-
-  edge_rx_drop #(.ReaderWidth(RW), .TickWidth(TW)) u_drop_at_start_end (
-    .n_i(n_b[1:0]),
-    .starts_i(starts_b[0 +: 2*TW]),
-    .readers_i(readers_c[0 +: 2*RW]),
-    .start_low_i(start_low_c[1:0]),
-    .n_o(n_act),
-    .starts_o(starts_act),
-    .readers_o(readers_act),
-    .start_low_o(start_low_act)
-  );
-
-  // What a candidate reads, the line lasting at level_i: its 11 bits (the stop bit under way,
-  // bit 10, or decided), a tie, and whether it is a false start or a character with its byte
-  // and error (EdgeRx::read_char).
-  function automatic logic [11:0] read_bits(input logic [RW-1:0] r);
-    logic [PW:0] total;
-    logic        positive;
-    total    = level_i ? r[LeadAt +: PW + 1] : r[LagAt +: PW + 1];
-    positive = !total[PW] && total != {(PW + 1){1'b0}};
-    if (r[BitAt +: 4] == 4'd11) read_bits = {r[TieAt], r[ShiftAt +: 11]};
-    else read_bits = {r[TieAt] || total == {(PW + 1){1'b0}}, positive, r[ShiftAt + 1 +: 10]};
-  endfunction
-
-  // {false start, byte, error}.
-  function automatic logic [11:0] read_char(input logic [RW-1:0] r);
-    logic [11:0] tb;
-    logic [7:0]  byte_;
-    tb    = read_bits(r);
+  // ---- act: the current lane at its deadline. ----
+  // What a candidate reads, the line lasting at a level: its 11 bits (the stop bit under way,
+  // bit 10, or decided) and a tie, then (EdgeRx::read_char, but for the glitches) {tie, false
+  // start, byte, error: 0 none, 1 parity, 2 framing, 3 break}.
+  function automatic logic [12:0] read_ahead(input logic [RW-1:0] r, input logic level);
+    logic [PW:0]  total;
+    logic [11:0]  tb;
+    logic [7:0]   byte_;
+    logic [2:0]   error;
+    total = level ? r[LeadAt +: PW + 1] : r[LagAt +: PW + 1];
+    if (r[BitAt +: 4] == 4'd11) tb = {r[TieAt], r[ShiftAt +: 11]};
+    else tb = {r[TieAt] || total == {(PW + 1){1'b0}},
+               !total[PW] && total != {(PW + 1){1'b0}}, r[ShiftAt + 1 +: 10]};
     byte_ = tb[8:1];
-    if (tb[11]) read_char = {1'b0, 8'd0, 3'd4};
-    else if (tb[0]) read_char = {1'b1, byte_, 3'd0};
-    else if (r[GlitchesAt +: 2] == 2'd3) read_char = {1'b0, byte_, 3'd4};
-    else if (tb[10:0] == 11'd0) read_char = {1'b0, byte_, 3'd3};
-    else if (!tb[10]) read_char = {1'b0, byte_, 3'd2};
-    else if (tb[9] != ^byte_) read_char = {1'b0, byte_, 3'd1};
-    else read_char = {1'b0, byte_, 3'd0};
+    if (tb[10:0] == 11'd0) error = 3'd3;
+    else if (!tb[10]) error = 3'd2;
+    else if (tb[9] != ^byte_) error = 3'd1;
+    else error = 3'd0;
+    read_ahead = {tb[11], tb[0], byte_, error};
   endfunction
 
-  logic            due, deciding, chose_last;
-  logic [11:0]     first_read, last_read, chosen;
-  logic [TW-1:0]   end_for_idle;
-  logic [RW-1:0]   last_reader;
+  // The reading with this clock's glitch count: {false start, byte, error} (4: noise).
+  function automatic logic [11:0] read_char(input logic [12:0] ahead, input logic [1:0] glitches);
+    if (ahead[12]) read_char = {1'b0, 8'd0, 3'd4};
+    else if (ahead[11]) read_char = {1'b1, ahead[10:3], 3'd0};
+    else if (glitches == 2'd3) read_char = {1'b0, ahead[10:3], 3'd4};
+    else read_char = {1'b0, ahead[10:3], ahead[2:0]};
+  endfunction
+
+  // The current lane's readings a clock ahead: each slot's registers as this clock leaves
+  // them, read with the line lasting at either level. On the next clock, the registers they
+  // were read from are the readers' and its level picks one: the decision reads them (and the
+  // glitch count as that clock leaves it), so no reader's logic is on the way to it. (A
+  // decision that makes the other lane current is followed by none for a while.)
+  logic [4*13-1:0] ahead_q, ahead_d;
+  always_comb begin
+    for (int s = 0; s < 2; s++) begin
+      for (int lvl = 0; lvl < 2; lvl++) begin
+        ahead_d[(2*s + lvl)*13 +: 13] = read_ahead(readers_c[(2*cur_q + s)*RW +: RW], lvl[0]);
+      end
+    end
+  end
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) ahead_q <= '0;
+    else ahead_q <= ahead_d;
+  end
+
+  logic          due, deciding, chose_last, both_good, c_first, c_last, d_first, d_last;
+  logic          chosen_slot;
+  logic [1:0]    due_q, due_d;
+  logic [TW-1:0] slot_start;
+  logic [63:0]   start32, end32;
+  logic [TW-1:0] end_first, end_last;
+  logic [31-TW:0] upper_less_one;
+  logic          idle_pending_q, idle_pending_d;
+  logic [TW-1:0] idle_from_q, idle_from_d;
+  assign upper_less_one = now_i[31:TW] - 1'b1;
+  logic [1:0]    c_live, d_live;
+  logic [11:0]   first_read, last_read, chosen;
+  logic [TW-1:0] end_for_idle;
 
   always_comb begin
-    n_d               = n_b;
+    live_d            = live_b;
+    first_d           = first_b;
     starts_d          = starts_b;
     readers_d         = readers_c;
     start_low_d       = start_low_c;
@@ -276,6 +306,7 @@ module edge_rx #(
     idle_d            = idle_b;
     stage_d           = stage_b;
     deadline_d        = deadline_b;
+    cur_d             = cur_q;
     next_from_d       = next_from_q;
     next_from_valid_d = next_from_valid_q;
     char_o            = 1'b0;
@@ -285,51 +316,86 @@ module edge_rx #(
     char_end_o        = '0;
     char_idle_before_o = '0;
     deciding          = 1'b0;
-    due = n_b[1:0] != 2'd0 && reached(deadline_b[0 +: TW]);
-    last_reader = n_b[1:0] == 2'd2 ? readers_c[RW +: RW] : readers_c[0 +: RW];
-    first_read  = read_char(readers_c[0 +: RW]);
-    last_read   = read_char(last_reader);
-    // EdgeRx::decide's choice between the two candidates (the last one read when it is alone).
-    chose_last  = 1'b1;
-    if (n_b[1:0] == 2'd2) begin
-      if (!first_read[11] && first_read[2:0] == 3'd0 && !last_read[11] && last_read[2:0] == 3'd0
-          && first_read[10:3] != last_read[10:3]) begin
-        chose_last = 1'b1;
-      end else if (!last_read[11] && last_read[2:0] == 3'd0) begin
-        chose_last = 1'b1;
-      end else if (!first_read[11] && first_read[2:0] == 3'd0) begin
-        chose_last = 1'b0;
-      end else begin
-        chose_last = first_read[11];
-      end
+    idle_pending_d    = 1'b0;
+    idle_from_d       = idle_from_q;
+    // The idle time of the lane a decision made current on the last clock (EdgeRx::decide
+    // writes it there and then): from the decided character's end, or its first start with
+    // none, to the lane's first fall. A lane still empty then gets its own at its first fall.
+    if (idle_pending_q && live_q[2*cur_q +: 2] != 2'b00) begin
+      idle_d[cur_q*IW +: IW] = idle_between(idle_from_q, opened_q[cur_q*TW +: TW]);
     end
+    // The current lane as the last clock left it. When it is due, a fall on this clock has
+    // started nothing in it (below) and dropped only candidates the drop at the end of the
+    // start bits drops too; in the stop bit it changes nothing: so the act reads registers,
+    // and nothing of on_edge's is on the way to the decision.
+    c_live  = live_q[2*cur_q +: 2];
+    c_first = first_q[cur_q];
+    c_last  = c_live == 2'b11 ? !c_first : c_first;
+    // Due by the deadline the last clock left, compared with this clock on the last one
+    // (due_q): a fall on this clock that changes it (a candidate opened, its deadline ahead;
+    // a dropped one, only when it was due already) does not change whether it is due.
+    due     = live_b[2*cur_q +: 2] != 2'b00 && start_reader[2*cur_q +: 2] == 2'b00
+           && due_q[cur_q];
+    // Each lane's deadline against the next clock. A deadline written on this clock is ahead
+    // of it (a start bit from now, the stop bit's middle or end of a candidate whose start bit
+    // is over); one a drop wrote is no later than the one before, which was reached if it is.
+    for (int l = 0; l < 2; l++) begin
+      due_d[l] = reached_next(deadline_q[l*TW +: TW]) && start_reader[2*l +: 2] == 2'b00;
+    end
+    // Its candidates dropped at the end of their start bits (by the readers through now).
+    for (int s = 0; s < 2; s++) begin
+      d_live[s] = c_live[s] && (!start_over[2*cur_q+s] || start_low_c[2*cur_q+s]);
+    end
+    d_first = !d_live[c_first] && d_live[!c_first] ? !c_first : c_first;
+    d_last  = d_live == 2'b11 ? !d_first : d_first;
+    first_read = read_char(ahead_q[(2*int'(c_first) + int'(level_i))*13 +: 13],
+                           readers_c[(2*cur_q + int'(c_first))*RW + GlitchesAt +: 2]);
+    last_read  = read_char(ahead_q[(2*int'(c_last) + int'(level_i))*13 +: 13],
+                           readers_c[(2*cur_q + int'(c_last))*RW + GlitchesAt +: 2]);
+    // EdgeRx::decide's choice between the two candidates (the first when it is alone).
+    both_good  = !first_read[11] && first_read[2:0] == 3'd0
+              && !last_read[11] && last_read[2:0] == 3'd0;
+    if (c_live != 2'b11) chose_last = 1'b0;
+    else if (!last_read[11] && last_read[2:0] == 3'd0) chose_last = 1'b1;
+    else if (!first_read[11] && first_read[2:0] == 3'd0) chose_last = 1'b0;
+    else chose_last = first_read[11];
     chosen = chose_last ? last_read : first_read;
-    if (n_b[1:0] == 2'd2 && !first_read[11] && first_read[2:0] == 3'd0 && !last_read[11]
-        && last_read[2:0] == 3'd0 && first_read[10:3] != last_read[10:3]) begin
-      // Two different good characters: the line does not say which it was.
-      chosen[2:0] = 3'd4;
+    // Two different good characters: the line does not say which it was.
+    if (c_live == 2'b11 && both_good && first_read[10:3] != last_read[10:3]) chosen[2:0] = 3'd4;
+    chosen_slot  = chose_last ? c_last : c_first;
+    // The ends of both candidates from registers, the read only choosing.
+    end_first    = starts_q[(2*cur_q + int'(c_first))*TW +: TW] + TW'(stop_end_i);
+    end_last     = starts_q[(2*cur_q + int'(c_last))*TW +: TW] + TW'(stop_end_i);
+    end_for_idle = chosen[11] ? starts_q[(2*cur_q + int'(c_first))*TW +: TW]
+                 : chose_last ? end_last : end_first;
+    // Each candidate's start and end as 32-bit ticks: now_i's upper bits, less one if the
+    // start's low bits are past now's (it came before they wrapped); the read only chooses.
+    for (int s = 0; s < 2; s++) begin
+      slot_start = starts_q[(2*cur_q + s)*TW +: TW];
+      start32[s*32 +: 32] = {slot_start > now ? upper_less_one : now_i[31:TW], slot_start};
+      end32[s*32 +: 32]   = start32[s*32 +: 32] + 32'(stop_end_i);
     end
     if (due) begin
-      case (stage_b[1:0])
+      case (stage_q[2*cur_q +: 2])
         StartBit: begin
           // Every candidate's start bit is over by now.
-          n_d[1:0]             = n_act;
-          starts_d[0 +: 2*TW]  = starts_act;
-          readers_d[0 +: 2*RW] = readers_act;
-          start_low_d[1:0]     = start_low_act;
-          if (n_act != 2'd0) begin
-            stage_d[1:0]          = StopMiddle;
-            deadline_d[0 +: TW]   = (n_act == 2'd2 ? starts_act[TW +: TW] : starts_act[0 +: TW])
-                                  + TW'(stop_middle_i);
-            next_from_d           = starts_act[0 +: TW] + TW'(stop_middle_i);
-            next_from_valid_d     = 1'b1;
+          live_d[2*cur_q +: 2] = d_live;
+          first_d[cur_q]       = d_first;
+          if (d_live != 2'b00) begin
+            stage_d[2*cur_q +: 2]     = StopMiddle;
+            deadline_d[cur_q*TW +: TW] = starts_q[(2*cur_q + int'(d_last))*TW +: TW]
+                                       + TW'(stop_middle_i);
+            next_from_d       = starts_q[(2*cur_q + int'(d_first))*TW +: TW] + TW'(stop_middle_i);
+            next_from_valid_d = 1'b1;
+            due_d[cur_q]      = 1'b0;
           end
         end
         StopMiddle: begin
           if (!level_i) begin
-            stage_d[1:0]        = StopEnd;
-            deadline_d[0 +: TW] = (n_b[1:0] == 2'd2 ? starts_b[TW +: TW] : starts_b[0 +: TW])
-                                + TW'(stop_end_i);
+            due_d[cur_q]               = 1'b0;
+            stage_d[2*cur_q +: 2]      = StopEnd;
+            deadline_d[cur_q*TW +: TW] = starts_q[(2*cur_q + int'(c_last))*TW +: TW]
+                                       + TW'(stop_end_i);
           end else begin
             deciding = 1'b1;
           end
@@ -341,64 +407,47 @@ module edge_rx #(
       char_o             = !chosen[11];
       char_byte_o        = chosen[10:3];
       char_error_o       = chosen[2:0];
-      char_start_o       = chose_last && n_b[1:0] == 2'd2 ? starts_b[TW +: TW] : starts_b[0 +: TW];
-      char_end_o         = char_start_o + TW'(stop_end_i);
-      char_idle_before_o = idle_b[0 +: IW];
-      end_for_idle       = char_o ? char_end_o : starts_b[0 +: TW];
-      // Lane 1 goes on as lane 0; lane 1 starts empty.
-      n_d                  = {2'd0, n_b[3:2]};
-      starts_d             = {{2*TW{1'b0}}, starts_b[2*TW +: 2*TW]};
-      readers_d            = {{2{ReaderReset}}, readers_c[2*RW +: 2*RW]};
-      start_low_d          = {2'b00, start_low_c[3:2]};
-      opened_d             = {{TW{1'b0}}, opened_b[TW +: TW]};
-      idle_d               = {{IW{1'b0}}, idle_between(end_for_idle, opened_b[TW +: TW])};
-      stage_d              = {StartBit, stage_b[3:2]};
-      deadline_d           = {{TW{1'b0}}, deadline_b[TW +: TW]};
-      next_from_valid_d    = 1'b0;
-      next_from_d          = '0;
-    end else begin
-      end_for_idle = '0;
+      char_start_o       = start32[int'(chosen_slot)*32 +: 32];
+      char_end_o         = end32[int'(chosen_slot)*32 +: 32];
+      char_idle_before_o = idle_q[cur_q*IW +: IW];
+      // This lane is closed; the other goes on as the character under way. Its idle time
+      // from this character's end is written on the next clock (idle_pending_q), before its
+      // own decision can read it.
+      live_d[2*cur_q +: 2]   = 2'b00;
+      first_d[cur_q]         = 1'b0;
+      stage_d[2*cur_q +: 2]  = StartBit;
+      cur_d                  = !cur_q;
+      next_from_valid_d      = 1'b0;
+      idle_pending_d         = 1'b1;
+      idle_from_d            = end_for_idle;
     end
-    if (hand_over_i) begin
-      // The search's hand-over: afresh, with this clock's fall.
+    if (hand_over_i || clear_i) begin
+      // Afresh: both lanes free, lane 0 the current one.
       char_o            = 1'b0;
-      n_d               = '0;
-      starts_d          = '0;
-      readers_d         = {4{ReaderReset}};
-      start_low_d       = '0;
-      opened_d          = '0;
-      idle_d            = '0;
+      live_d            = '0;
+      first_d           = '0;
       stage_d           = {StartBit, StartBit};
-      deadline_d        = '0;
-      next_from_d       = '0;
+      cur_d             = 1'b0;
       next_from_valid_d = 1'b0;
-      if (fell) begin
-        n_d[1:0]            = 2'd1;
-        starts_d[0 +: 2*TW] = {now_i, now_i};
-        readers_d[0 +: RW]  = {4'd0, modulo_less_inc_i, 1'b0, modulo_less_two_inc_i,
-                               -{1'b0, modulo_i}, (11 + 1 + 2 + 1 + PW)'(0)};
-        opened_d[0 +: TW]   = now_i;
-        idle_d[0 +: IW]     = idle_between(hand_over_end_i, now_i);
-        deadline_d[0 +: TW] = now_i + TW'(start_end_i);
+      idle_pending_d    = 1'b0;
+      due_d             = '0;
+      if (hand_over_i && !clear_i && fell) begin
+        // This clock's fall opens the character after the one the search decided, in slot 0
+        // of lane 0.
+        live_d[1:0]        = 2'b01;
+        starts_d[0 +: TW]  = now;
+        start_low_d[0]     = 1'b0;
+        opened_d[0 +: TW]  = now;
+        idle_d[0 +: IW]    = idle_between(hand_over_end_i, now);
+        deadline_d[0 +: TW] = now + TW'(start_end_i);
       end
-    end
-    if (clear_i) begin
-      n_d               = '0;
-      starts_d          = '0;
-      readers_d         = {4{ReaderReset}};
-      start_low_d       = '0;
-      opened_d          = '0;
-      idle_d            = '0;
-      stage_d           = {StartBit, StartBit};
-      deadline_d        = '0;
-      next_from_d       = '0;
-      next_from_valid_d = 1'b0;
     end
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
-      n_q               <= '0;
+      live_q            <= '0;
+      first_q           <= '0;
       starts_q          <= '0;
       readers_q         <= {4{ReaderReset}};
       start_low_q       <= '0;
@@ -406,10 +455,15 @@ module edge_rx #(
       idle_q            <= '0;
       stage_q           <= {StartBit, StartBit};
       deadline_q        <= '0;
+      cur_q             <= 1'b0;
       next_from_q       <= '0;
       next_from_valid_q <= 1'b0;
+      idle_pending_q    <= 1'b0;
+      idle_from_q       <= '0;
+      due_q             <= '0;
     end else begin
-      n_q               <= n_d;
+      live_q            <= live_d;
+      first_q           <= first_d;
       starts_q          <= starts_d;
       readers_q         <= readers_d;
       start_low_q       <= start_low_d;
@@ -417,16 +471,20 @@ module edge_rx #(
       idle_q            <= idle_d;
       stage_q           <= stage_d;
       deadline_q        <= deadline_d;
+      cur_q             <= cur_d;
       next_from_q       <= next_from_d;
       next_from_valid_q <= next_from_valid_d;
+      idle_pending_q    <= idle_pending_d;
+      idle_from_q       <= idle_from_d;
+      due_q             <= due_d;
     end
   end
 
-  assign active_o          = n_q[1:0] != 2'd0;
-  assign active_next_o     = n_d[1:0] != 2'd0;
-  assign deadline_o        = deadline_q[0 +: TW];
-  assign stage_o           = stage_q[1:0];
-  assign next_active_o     = n_q[3:2] != 2'd0;
+  assign active_o          = live_q[2*cur_q +: 2] != 2'b00;
+  assign active_next_o     = live_d[2*cur_d +: 2] != 2'b00;
+  assign deadline_o        = deadline_q[cur_q*TW +: TW];
+  assign stage_o           = stage_q[2*cur_q +: 2];
+  assign next_active_o     = live_q[2*(!cur_q) +: 2] != 2'b00;
   assign next_from_valid_o = next_from_valid_q;
   assign next_from_o       = next_from_q;
 endmodule

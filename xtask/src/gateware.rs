@@ -5,8 +5,11 @@
 //! Contract: synthesises every block rtl-check proves, as the transceiver builds it
 //! (`synth_ice40`), and prints its cells (yosys `stat`); then places and routes the baud-rate
 //! search, the block that decides the part, on the FPGA at its sample clock. It fails where a
-//! tool fails, the search does not fit, or nextpnr's Fmax is under the clock. There is no top
-//! module yet (issue 27), so no bitstream: its last line says so, with the search's figures.
+//! tool fails, the search does not fit, or nextpnr's Fmax is under the clock. The receiver is
+//! placed and routed alone too, in a wrapper that registers its outputs
+//! (`gateware/fit/edge_rx_fit.v`), and its cells and Fmax printed: figures to work on, not yet
+//! a gate. There is no top module yet (issue 27), so no bitstream: its last line says so, with
+//! the search's figures.
 //! The tools are installed where missing: into a virtual environment under `target/yowasp`
 //! (pip, pinned versions), or the error says which command to run.
 
@@ -82,10 +85,27 @@ pub fn run(args: &[String]) -> Result<()> {
             cells.bram
         );
     }
-    let (used, total, fmax) = place_and_route(&tools, &search, &root)?;
+    let (used, total, fmax) = place_and_route(&tools, &search, &root, false)?;
     println!(
         "  the search on the part: {used}/{total} logic cells ({}%), Fmax {fmax:.1} MHz",
         used * 100 / total.max(1)
+    );
+    // The receiver alone, in a wrapper that registers its outputs (no top module yet): its
+    // cells and clock rate are figures to work on, reported, not a gate.
+    let receiver = Block {
+        top: "edge_rx_fit",
+        rtl: &["../fit/edge_rx_fit.v", "edge_rx.v", "char_reader_step.v"],
+        signals: &[],
+        params: Vec::new(),
+        twin: "dp_phy::edge_rx::EdgeRx",
+        events: false,
+    };
+    synthesise(&tools, &receiver, &root)?;
+    let (rx_used, _, rx_fmax) = place_and_route(&tools, &receiver, &root, true)?;
+    println!(
+        "  the receiver alone on the part (gateware/fit/edge_rx_fit.v): {rx_used}/{total} logic cells ({}%), Fmax {rx_fmax:.1} MHz{}",
+        rx_used * 100 / total.max(1),
+        if rx_fmax < clock_mhz { " (under the clock: issue 27)" } else { "" }
     );
     println!(
         "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: no top module yet)",
@@ -104,9 +124,15 @@ pub fn run(args: &[String]) -> Result<()> {
 }
 
 /// nextpnr-ice40 on `block`'s netlist (from [`synthesise`]) for the board's FPGA at its
-/// sample clock: the logic cells used and in the part, and the routed Fmax. Its report goes
-/// to `<build>-pnr.log` in [`OUT`].
-fn place_and_route(tools: &Tools, block: &Block, root: &Path) -> Result<(u64, u64, f64)> {
+/// sample clock: the logic cells used and in the part, and the routed Fmax (a failure under
+/// the clock with `slow_ok`, for a block measured rather than gated). Its report goes to
+/// `<build>-pnr.log` in [`OUT`].
+fn place_and_route(
+    tools: &Tools,
+    block: &Block,
+    root: &Path,
+    slow_ok: bool,
+) -> Result<(u64, u64, f64)> {
     let fpga = TRANSCEIVER_FPGA;
     let name = block.build_name();
     let report = root.join(OUT).join(format!("{name}-pnr.log"));
@@ -119,6 +145,11 @@ fn place_and_route(tools: &Tools, block: &Block, root: &Path) -> Result<(u64, u6
         .arg(format!("{OUT}/{name}.json"))
         .arg("--freq")
         .arg(format!("{}", f64::from(fpga.sample_clock_hz) / 1e6))
+        .args(if slow_ok {
+            &["--timing-allow-fail"][..]
+        } else {
+            &[]
+        })
         .output()
         .context("running nextpnr-ice40")?;
     let log = String::from_utf8_lossy(&output.stderr).to_string();

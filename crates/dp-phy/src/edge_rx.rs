@@ -55,14 +55,20 @@ use crate::{BitTiming, Tick};
 /// Glitches a character may hold: two (the search, which decides the rate, takes one).
 const MAX_GLITCHES: u32 = 2;
 
-/// One character's candidate starts, each read as it arrives by a reader of its own.
+/// One character's candidate starts, each read as it arrives by a reader of its own, in two
+/// slots that keep their registers: a candidate is started in a free slot and dropped by
+/// marking it free, so nothing moves between slots (in the gateware, no reader is copied).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Lane {
-    /// Candidates under way (0: none), the first fall first, with their start ticks.
-    pub n_starts: u8,
+    /// The slots with a candidate under way (none: no character).
+    pub live: [bool; 2],
+    /// The slot of the first candidate (the earlier fall) while one is under way; the second,
+    /// if any, is in the other.
+    pub first: usize,
+    /// Each slot's start tick and reader.
     pub starts: [Tick; 2],
     pub readers: [CharReaderQ; 2],
-    /// Each candidate's start bit as its reader decided it: low, and no tie.
+    /// Each slot's start bit as its reader decided it: low, and no tie.
     pub start_low: [bool; 2],
     /// The fall that opened the candidates (whatever was dropped since), and the idle clocks
     /// before it: the character's.
@@ -74,7 +80,8 @@ pub struct Lane {
 }
 
 pub const LANE_EMPTY: Lane = Lane {
-    n_starts: 0,
+    live: [false; 2],
+    first: 0,
     starts: [0; 2],
     readers: [CHAR_READER_RESET; 2],
     start_low: [false; 2],
@@ -84,21 +91,45 @@ pub const LANE_EMPTY: Lane = Lane {
     deadline: Tick::MAX,
 };
 
-/// Registers of the receiver: the character under way, and the next one, which may start
-/// before the first is decided (the decision waits for the middle of the last candidate's stop
-/// bit, or its end).
+impl Lane {
+    /// Candidates under way.
+    pub fn n_starts(&self) -> usize {
+        usize::from(self.live[0]) + usize::from(self.live[1])
+    }
+
+    /// The slot of the last candidate (the first when it is alone).
+    fn last(&self) -> usize {
+        if self.n_starts() == 2 {
+            1 - self.first
+        } else {
+            self.first
+        }
+    }
+
+    /// Empty again: its slots free (their registers stay as they are).
+    fn close(&mut self) {
+        self.live = [false; 2];
+        self.first = 0;
+        self.stage = Stage::StartBit;
+        self.deadline = Tick::MAX;
+    }
+}
+
+/// Registers of the receiver: two lanes, one the character under way (`lanes[cur]`), the other
+/// the next one, which may start before the first is decided (the decision waits for the middle
+/// of the last candidate's stop bit, or its end). At the decision they swap roles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EdgeRxQ {
-    pub cur: Lane,
-    /// The falls from `next_from` on while `cur`'s decision is pending: the next character's
-    /// candidates, taken over by `cur` at the decision.
-    pub next: Lane,
-    /// The middle of `cur`'s first candidate's stop bit once its candidates are final
-    /// (`Tick::MAX` before).
+    pub lanes: [Lane; 2],
+    /// The lane of the character under way; the other takes the falls from `next_from` on while
+    /// its decision is pending: the next character's candidates.
+    pub cur: usize,
+    /// The middle of the current lane's first candidate's stop bit once its candidates are
+    /// final (`Tick::MAX` before).
     pub next_from: Tick,
     /// The readers have taken the line through this tick.
     pub read_until: Tick,
-    /// `cur`'s deadline: the tick the receiver acts on next.
+    /// The current lane's deadline: the tick the receiver acts on next.
     pub deadline: Tick,
 }
 
@@ -115,8 +146,8 @@ pub enum Stage {
 }
 
 pub const EDGE_RX_RESET: EdgeRxQ = EdgeRxQ {
-    cur: LANE_EMPTY,
-    next: LANE_EMPTY,
+    lanes: [LANE_EMPTY; 2],
+    cur: 0,
     next_from: Tick::MAX,
     read_until: 0,
     deadline: Tick::MAX,
@@ -125,7 +156,16 @@ pub const EDGE_RX_RESET: EdgeRxQ = EdgeRxQ {
 impl EdgeRxQ {
     /// Whether a character is under way.
     pub fn active(&self) -> bool {
-        self.cur.n_starts > 0
+        self.lanes[self.cur].n_starts() > 0
+    }
+
+    /// The lane of the character under way, and the next one's.
+    pub fn current(&self) -> &Lane {
+        &self.lanes[self.cur]
+    }
+
+    pub fn next(&self) -> &Lane {
+        &self.lanes[1 - self.cur]
     }
 }
 
@@ -166,52 +206,49 @@ impl EdgeRx {
         // when its reader decided it on an earlier clock.
         let mut started = [None, None];
         if !rose {
-            if q.next_from <= now {
-                started[1] = self.on_fall(&mut q.next, now, idle_before);
-            } else {
-                started[0] = self.on_fall(&mut q.cur, now, idle_before);
-            }
+            let lane = if q.next_from <= now { 1 - q.cur } else { q.cur };
+            started[lane] = self.on_fall(&mut q.lanes[lane], now, idle_before);
         }
-        for (lane, started) in [(&mut q.cur, started[0]), (&mut q.next, started[1])] {
-            for i in 0..lane.n_starts as usize {
-                if started == Some(i) {
-                    self.reader.start(&mut lane.readers[i]);
-                } else {
-                    self.clock(lane, i, rose);
+        for (lane, started) in q.lanes.iter_mut().zip(started) {
+            for slot in 0..2 {
+                if started == Some(slot) {
+                    self.reader.start(&mut lane.readers[slot]);
+                } else if lane.live[slot] {
+                    self.clock(lane, slot, rose);
                 }
             }
         }
         q.read_until = now;
-        q.deadline = q.cur.deadline;
+        q.deadline = q.lanes[q.cur].deadline;
     }
 
-    /// A fall at `at` into `lane`. Returns the candidate it starts, whose reader is to be
-    /// started. (A fall after the decision is past the middle of the last character's stop
-    /// bit, the decision's earliest tick: nothing bars it.)
+    /// A fall at `at` into `lane`. Returns the slot of the candidate it starts, whose reader
+    /// is to be started. (A fall after the decision is past the middle of the last character's
+    /// stop bit, the decision's earliest tick: nothing bars it.)
     fn on_fall(&self, lane: &mut Lane, at: Tick, idle_before: Tick) -> Option<usize> {
         if lane.stage == Stage::StartBit {
             self.drop_false_starts(lane);
         }
-        if lane.n_starts == 0 {
-            *lane = Lane {
-                n_starts: 1,
-                starts: [at, at],
-                opened_at: at,
-                idle_before,
-                stage: Stage::StartBit,
-                deadline: at + self.start_end,
-                ..LANE_EMPTY
-            };
+        if lane.n_starts() == 0 {
+            lane.live = [true, false];
+            lane.first = 0;
+            lane.starts[0] = at;
+            lane.start_low[0] = false;
+            lane.opened_at = at;
+            lane.idle_before = idle_before;
+            lane.stage = Stage::StartBit;
+            lane.deadline = at + self.start_end;
             Some(0)
-        } else if lane.readers[0].bit == 0 {
+        } else if lane.readers[lane.first].bit == 0 {
             // Inside the first candidate's start bit: a second candidate (a later one replaces
-            // it).
-            lane.starts[1] = at;
-            lane.start_low[1] = false;
-            lane.n_starts = 2;
+            // it), in the other slot.
+            let second = 1 - lane.first;
+            lane.live[second] = true;
+            lane.starts[second] = at;
+            lane.start_low[second] = false;
             lane.deadline = at + self.start_end;
             lane.stage = Stage::StartBit;
-            Some(1)
+            Some(second)
         } else {
             None
         }
@@ -222,7 +259,8 @@ impl EdgeRx {
         if !q.active() {
             return 0;
         }
-        let start = q.cur.starts[q.cur.n_starts as usize - 1];
+        let lane = q.current();
+        let start = lane.starts[lane.last()];
         ((now - start.min(now)) * self.timing.inc / self.timing.modulo).min(15) as u8
     }
 
@@ -230,51 +268,44 @@ impl EdgeRx {
     /// character, if one was decided (a false start is none), and the idle clocks before it.
     pub fn act(&self, now: Tick, level: bool, q: &mut EdgeRxQ) -> Option<(RxChar, Tick)> {
         self.read_to(now, level, q);
-        let out = match q.cur.stage {
+        let lane = &mut q.lanes[q.cur];
+        let out = match lane.stage {
             Stage::StartBit => {
                 // Every candidate's start bit is over by now.
-                self.drop_false_starts(&mut q.cur);
-                if q.active() {
-                    q.cur.stage = Stage::StopMiddle;
-                    q.cur.deadline = self.last_start(&q.cur) + self.stop_middle;
-                    q.next_from = q.cur.starts[0] + self.stop_middle;
+                self.drop_false_starts(lane);
+                if lane.n_starts() > 0 {
+                    lane.stage = Stage::StopMiddle;
+                    lane.deadline = lane.starts[lane.last()] + self.stop_middle;
+                    q.next_from = lane.starts[lane.first] + self.stop_middle;
                 }
                 None
             }
             Stage::StopMiddle if !level => {
-                q.cur.stage = Stage::StopEnd;
-                q.cur.deadline = self.last_start(&q.cur) + self.stop_end;
+                lane.stage = Stage::StopEnd;
+                lane.deadline = lane.starts[lane.last()] + self.stop_end;
                 None
             }
             Stage::StopMiddle | Stage::StopEnd => self.decide(level, q),
         };
-        q.deadline = q.cur.deadline;
+        q.deadline = q.lanes[q.cur].deadline;
         out
     }
 
-    fn last_start(&self, lane: &Lane) -> Tick {
-        lane.starts[lane.n_starts as usize - 1]
-    }
-
     /// The candidates whose start bit is over (decided by their reader) and did not read
-    /// low are dropped.
+    /// low are dropped; the first left is the first.
     fn drop_false_starts(&self, lane: &mut Lane) {
-        let mut kept = 0;
-        for i in 0..lane.n_starts as usize {
-            let over = lane.readers[i].bit >= 1;
+        for slot in 0..2 {
+            let over = lane.readers[slot].bit >= 1;
             // Kept: its start bit still under way, or read low.
-            if !over || lane.start_low[i] {
-                lane.starts[kept] = lane.starts[i];
-                lane.readers[kept] = lane.readers[i];
-                lane.start_low[kept] = lane.start_low[i];
-                kept += 1;
-            }
+            lane.live[slot] &= !over || lane.start_low[slot];
         }
-        lane.n_starts = kept as u8;
-        lane.deadline = if kept == 0 {
+        if !lane.live[lane.first] && lane.live[1 - lane.first] {
+            lane.first = 1 - lane.first;
+        }
+        lane.deadline = if lane.n_starts() == 0 {
             Tick::MAX
         } else {
-            self.last_start(lane)
+            lane.starts[lane.last()]
                 + match lane.stage {
                     Stage::StartBit => self.start_end,
                     Stage::StopMiddle => self.stop_middle,
@@ -288,24 +319,26 @@ impl EdgeRx {
     fn read_to(&self, until: Tick, level: bool, q: &mut EdgeRxQ) {
         let n = until.saturating_sub(q.read_until);
         if n > 0 {
-            for lane in [&mut q.cur, &mut q.next] {
-                for i in 0..lane.n_starts as usize {
-                    self.advance(lane, i, level, n);
+            for lane in &mut q.lanes {
+                for slot in 0..2 {
+                    if lane.live[slot] {
+                        self.advance(lane, slot, level, n);
+                    }
                 }
             }
         }
         q.read_until = q.read_until.max(until);
     }
 
-    /// `n` clocks of candidate `i`'s reader at `level`; its start bit's reading is kept as
-    /// it is decided.
-    fn advance(&self, lane: &mut Lane, i: usize, level: bool, n: u64) {
-        let r = &mut lane.readers[i];
+    /// `n` clocks of the reader in `slot` at `level`; its start bit's reading is kept as it
+    /// is decided.
+    fn advance(&self, lane: &mut Lane, slot: usize, level: bool, n: u64) {
+        let r = &mut lane.readers[slot];
         if r.bit == 0 {
             let to_decide = r.rem.div_ceil(self.reader.inc);
             if n >= to_decide {
                 self.reader.advance(r, level, to_decide);
-                lane.start_low[i] = start_bit_low(r);
+                lane.start_low[slot] = start_bit_low(r);
                 self.reader.advance(r, level, n - to_decide);
                 return;
             }
@@ -313,13 +346,13 @@ impl EdgeRx {
         self.reader.advance(r, level, n);
     }
 
-    /// Candidate `i`'s reader through one clock with an edge to `level`.
-    fn clock(&self, lane: &mut Lane, i: usize, level: bool) {
-        let r = &mut lane.readers[i];
+    /// The reader in `slot` through one clock with an edge to `level`.
+    fn clock(&self, lane: &mut Lane, slot: usize, level: bool) {
+        let r = &mut lane.readers[slot];
         let before = r.bit;
         self.reader.clock(r, level, true);
         if before == 0 && r.bit == 1 {
-            lane.start_low[i] = start_bit_low(r);
+            lane.start_low[slot] = start_bit_low(r);
         }
     }
 
@@ -347,28 +380,31 @@ impl EdgeRx {
     }
 
     /// The decision: the character the candidates read, if any. The next character's
-    /// candidates, from the falls since the middle of this one's stop bit, go on.
+    /// candidates, from the falls since the middle of this one's stop bit, go on as the
+    /// character under way.
     fn decide(&self, level: bool, q: &mut EdgeRxQ) -> Option<(RxChar, Tick)> {
-        let lane = &q.cur;
-        let last = lane.n_starts as usize - 1;
+        let lane = &q.lanes[q.cur];
+        let (first, last) = (lane.first, lane.last());
         // At the last candidate's stop bit: every reader is in its stop bit or past it (the
         // gateware reads those two cases only).
-        debug_assert!(lane.readers[..=last].iter().all(|r| r.bit >= CHAR_BITS - 1));
-        let first_read = self.read_char(&lane.readers[0], level);
-        let (read, start) = if last == 0 {
-            (first_read, 0)
+        debug_assert!([first, last]
+            .iter()
+            .all(|&slot| lane.readers[slot].bit >= CHAR_BITS - 1));
+        let first_read = self.read_char(&lane.readers[first], level);
+        let (read, start) = if last == first {
+            (first_read, first)
         } else {
             match (first_read, self.read_char(&lane.readers[last], level)) {
                 (Read::Char(a, None), Read::Char(b, None)) if a != b => {
                     (Read::Char(b, Some(CharError::Noise)), last)
                 }
                 (_, b @ Read::Char(_, None)) => (b, last),
-                (a @ Read::Char(_, None), _) => (a, 0),
+                (a @ Read::Char(_, None), _) => (a, first),
                 (Read::FalseStart, b) => (b, last),
-                (a, _) => (a, 0),
+                (a, _) => (a, first),
             }
         };
-        let first_tick = lane.starts[0];
+        let first_tick = lane.starts[first];
         let start_tick = lane.starts[start];
         let idle_before = lane.idle_before;
         let c = match read {
@@ -381,9 +417,10 @@ impl EdgeRx {
             }),
         };
         let end = c.map_or(first_tick, |c| c.end);
-        q.cur = q.next;
-        q.cur.idle_before = q.cur.opened_at.saturating_sub(end);
-        q.next = LANE_EMPTY;
+        q.lanes[q.cur].close();
+        q.cur = 1 - q.cur;
+        let next = &mut q.lanes[q.cur];
+        next.idle_before = next.opened_at.saturating_sub(end);
         q.next_from = Tick::MAX;
         c.map(|c| (c, idle_before))
     }

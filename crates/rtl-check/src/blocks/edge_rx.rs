@@ -17,10 +17,13 @@ use rand_chacha::ChaCha8Rng;
 /// The idle clocks the RTL keeps: 24 bits, saturating.
 const IDLE_MAX: u64 = (1 << 24) - 1;
 
+/// The ticks the RTL keeps inside: 18 bits (its TickWidth), the model's truncated.
+const TICK_MASK: u32 = (1 << 18) - 1;
+
 pub fn edge_rx() -> Block {
     Block {
         top: "edge_rx",
-        rtl: &["edge_rx.v", "edge_rx_drop.v", "char_reader_step.v"],
+        rtl: &["edge_rx.v", "char_reader_step.v"],
         signals: &[
             "active",
             "char",
@@ -91,14 +94,14 @@ impl RxCase {
         let timing = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud);
         self.rx = EdgeRx::new(timing);
         let r = dp_phy::char_reader::CharReader::new(timing);
+        // The adapter's own timing is whole clocks: a reader's phase step is 1, built in.
+        assert_eq!(r.inc, 1, "{baud}: the receiver's bit is not whole clocks");
         self.stimulus.push(b'T');
         for figure in [
-            r.inc,
             r.modulo,
             r.quarter,
             r.three_quarters,
             r.half_less_inc,
-            r.two_inc,
             r.modulo_less_inc,
             r.modulo_less_two_inc,
             timing.clocks_for(1, 1),
@@ -120,14 +123,14 @@ impl RxCase {
         self.line = level;
         let mut got = None;
         let seen = &mut self.seen;
-        seen.two_candidates += u32::from(self.q.cur.n_starts == 2);
-        seen.next_lane += u32::from(self.q.next.n_starts > 0);
+        seen.two_candidates += u32::from(self.q.current().n_starts() == 2);
+        seen.next_lane += u32::from(self.q.next().n_starts() > 0);
         if hand_over.is_some() {
             seen.hand_overs += 1;
             seen.hand_overs_falling += u32::from(fell);
         }
         seen.clears += u32::from(clear);
-        if now >= self.q.deadline && self.q.cur.stage == dp_phy::edge_rx::Stage::StopEnd {
+        if now >= self.q.deadline && self.q.current().stage == dp_phy::edge_rx::Stage::StopEnd {
             seen.stop_end += 1;
         }
         if let Some(end) = hand_over {
@@ -143,22 +146,22 @@ impl RxCase {
                 ..EDGE_RX_RESET
             };
         }
-        let stage = self.q.cur.stage as u8;
+        let stage = self.q.current().stage as u8;
         self.trace.push(
             u8::from(self.q.active())
                 | u8::from(got.is_some()) << 1
                 | stage << 2
-                | u8::from(self.q.next.n_starts > 0) << 4
+                | u8::from(self.q.next().n_starts() > 0) << 4
                 | u8::from(self.q.next_from != Tick::MAX) << 5,
         );
         let lanes = [
             if self.q.active() {
-                self.q.cur.deadline as u32
+                self.q.current().deadline as u32 & TICK_MASK
             } else {
                 u32::MAX
             },
             if self.q.next_from != Tick::MAX {
-                self.q.next_from as u32
+                self.q.next_from as u32 & TICK_MASK
             } else {
                 u32::MAX
             },

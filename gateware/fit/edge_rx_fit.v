@@ -1,0 +1,57 @@
+// A measurement wrapper, not part of the design: edge_rx on the part with a handful of pins,
+// so nextpnr can place it alone and report its clock rate until the transceiver's top module
+// exists (`cargo xtask gateware` builds it). The rate's figures shift in from one pin, the
+// tick counts up, every output is registered and the registers are folded into one pin: the
+// paths measured are edge_rx's own, register to register.
+`default_nettype none
+
+module edge_rx_fit (
+  input  wire clk_i,
+  input  wire rst_ni,
+  input  wire figures_i,
+  input  wire level_i,
+  input  wire edge_i,
+  input  wire hand_over_i,
+  input  wire clear_i,
+  output wire fold_o
+);
+  localparam int FiguresWidth = 6 * 13 + 3 * 16 + 24 + 18;
+  logic [FiguresWidth-1:0] figures_q;
+  logic [31:0]             now_q;
+  always_ff @(posedge clk_i) begin
+    figures_q <= {figures_q[FiguresWidth-2:0], figures_i};
+    now_q     <= now_q + 32'd1;
+  end
+
+  logic        char_, active, active_next, next_active, next_from_valid;
+  logic [7:0]  byte_;
+  logic [2:0]  error;
+  logic [31:0] start, end_;
+  logic [23:0] idle_before;
+  logic [17:0] deadline, next_from;
+  logic [1:0]  stage;
+  edge_rx u_edge_rx (
+    .clk_i, .rst_ni, .now_i(now_q),
+    .modulo_i(figures_q[0 +: 13]), .quarter_i(figures_q[13 +: 13]),
+    .three_quarters_i(figures_q[26 +: 13]), .half_less_inc_i(figures_q[39 +: 13]),
+    .modulo_less_inc_i(figures_q[52 +: 13]), .modulo_less_two_inc_i(figures_q[65 +: 13]),
+    .start_end_i(figures_q[78 +: 16]), .stop_middle_i(figures_q[94 +: 16]),
+    .stop_end_i(figures_q[110 +: 16]), .level_i, .edge_i,
+    .idle_before_i(figures_q[126 +: 24]), .hand_over_i, .hand_over_end_i(figures_q[150 +: 18]),
+    .clear_i,
+    .char_o(char_), .char_byte_o(byte_), .char_error_o(error), .char_start_o(start),
+    .char_end_o(end_), .char_idle_before_o(idle_before), .active_o(active),
+    .active_next_o(active_next), .deadline_o(deadline), .stage_o(stage),
+    .next_active_o(next_active), .next_from_valid_o(next_from_valid), .next_from_o(next_from)
+  );
+
+  localparam int OutWidth = 1 + 8 + 3 + 32 + 32 + 24 + 1 + 1 + 18 + 2 + 1 + 1 + 18;
+  logic [OutWidth-1:0] out_q;
+  logic                fold_q;
+  always_ff @(posedge clk_i) begin
+    out_q  <= {char_, byte_, error, start, end_, idle_before, active, active_next, deadline,
+               stage, next_active, next_from_valid, next_from};
+    fold_q <= ^out_q;
+  end
+  assign fold_o = fold_q;
+endmodule

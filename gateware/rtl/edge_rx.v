@@ -127,14 +127,27 @@ module edge_rx #(
     reached_next = !diff[TW-1];
   endfunction
 
+  // Every index below is a constant: "the current lane" and "the first slot" are small
+  // multiplexers of registers, where a part-select at a variable offset would be a shifter
+  // across the whole vector.
+  function automatic logic [TW-1:0] start_of(input logic [2*TW-1:0] lane_starts, input logic slot);
+    start_of = slot ? lane_starts[TW +: TW] : lane_starts[0 +: TW];
+  endfunction
+
+  // Per slot, from the registers: its reader's start bit still under way.
+  logic [3:0] in_start_bit;
+  for (genvar k = 0; k < 4; k++) begin : g_in_start_bit
+    assign in_start_bit[k] = readers_q[k*RW + BitAt +: 4] == 4'd0;
+  end
+
   // ---- on_edge: the fall's lane drops its false starts and opens a candidate in a free
   // slot; every reader takes the clock. ----
   logic       fell, fall_next;
   logic [1:0] fall_here;
-  logic [1:0] keep, slot_live;
-  logic       first_slot, second_slot, last_slot;
-  logic [3:0] live_b;
-  logic [1:0] first_b;
+  logic [1:0] keep;
+  logic       first_slot, last_slot;
+  logic [3:0]      live_b;
+  logic [1:0]      first_b;
   logic [4*TW-1:0] starts_b;
   logic [3:0]      start_low_b;
   logic [2*TW-1:0] opened_b;
@@ -162,29 +175,23 @@ module edge_rx #(
     deadline_b   = deadline_q;
     start_reader = '0;
     keep         = '0;
-    slot_live    = '0;
     first_slot   = 1'b0;
-    second_slot  = 1'b0;
     last_slot    = 1'b0;
     for (int l = 0; l < 2; l++) begin
       if (fall_here[l]) begin
         first_slot = first_q[l];
         if (stage_q[2*l +: 2] == StartBit) begin
           // The false starts: start bit decided on an earlier clock, and not low.
-          for (int s = 0; s < 2; s++) begin
-            keep[s] = live_q[2*l+s] && (readers_q[(2*l+s)*RW + BitAt +: 4] == 4'd0
-                                        || start_low_q[2*l+s]);
-          end
+          keep = live_q[2*l +: 2] & (in_start_bit[2*l +: 2] | start_low_q[2*l +: 2]);
           live_b[2*l +: 2] = keep;
-          if (!keep[first_q[l]] && keep[!first_q[l]]) first_slot = !first_q[l];
+          if (first_slot ? !keep[1] && keep[0] : !keep[0] && keep[1]) first_slot = !first_slot;
           first_b[l] = first_slot;
           // The last candidate kept, at the end of its start bit.
-          last_slot = keep[!first_slot] ? !first_slot : first_slot;
-          deadline_b[l*TW +: TW] = starts_q[(2*l + int'(last_slot))*TW +: TW]
+          last_slot = keep == 2'b11 ? !first_slot : first_slot;
+          deadline_b[l*TW +: TW] = start_of(starts_q[2*l*TW +: 2*TW], last_slot)
                                  + TW'(start_end_i);
         end
-        slot_live = live_b[2*l +: 2];
-        if (slot_live == 2'b00) begin
+        if (live_b[2*l +: 2] == 2'b00) begin
           // The first candidate of a character, in slot 0.
           live_b[2*l +: 2]         = 2'b01;
           first_b[l]               = 1'b0;
@@ -195,16 +202,19 @@ module edge_rx #(
           stage_b[2*l +: 2]        = StartBit;
           deadline_b[l*TW +: TW]   = now + TW'(start_end_i);
           start_reader[2*l]        = 1'b1;
-        end else if (readers_q[(2*l + int'(first_slot))*RW + BitAt +: 4] == 4'd0) begin
+        end else if (first_slot ? in_start_bit[2*l+1] : in_start_bit[2*l]) begin
           // Inside the first candidate's start bit: a second candidate in the other slot (a
           // later one replaces it).
-          second_slot                        = !first_slot;
-          live_b[2*l + int'(second_slot)]          = 1'b1;
-          starts_b[(2*l + int'(second_slot))*TW +: TW] = now;
-          start_low_b[2*l + int'(second_slot)]     = 1'b0;
-          stage_b[2*l +: 2]                  = StartBit;
-          deadline_b[l*TW +: TW]             = now + TW'(start_end_i);
-          start_reader[2*l + int'(second_slot)]    = 1'b1;
+          for (int s = 0; s < 2; s++) begin
+            if (first_slot != s[0]) begin
+              live_b[2*l+s]                 = 1'b1;
+              starts_b[(2*l+s)*TW +: TW]    = now;
+              start_low_b[2*l+s]            = 1'b0;
+              start_reader[2*l+s]           = 1'b1;
+            end
+          end
+          stage_b[2*l +: 2]      = StartBit;
+          deadline_b[l*TW +: TW] = now + TW'(start_end_i);
         end
       end
     end
@@ -226,28 +236,38 @@ module edge_rx #(
     // From the registers, not through the step's adders: the start bit ends on this clock
     // (its phase left is one clock's), and how it is decided (the sign of its balance with
     // this clock's level: low, and no tie, when negative).
-    assign start_ends[k] = !start_reader[k] && readers_q[k*RW + BitAt +: 4] == 4'd0
+    assign start_ends[k] = !start_reader[k] && in_start_bit[k]
                          && readers_q[k*RW + RemAt +: PW] <= PW'(1);
-    assign start_over[k] = !start_reader[k]
-                         && (readers_q[k*RW + BitAt +: 4] != 4'd0 || start_ends[k]);
+    assign start_over[k] = !start_reader[k] && (!in_start_bit[k] || start_ends[k]);
     assign start_low_c[k] = start_ends[k]
         ? (level_i ? readers_q[k*RW + LeadAt + PW] : readers_q[k*RW + LagAt + PW])
         : start_low_b[k];
   end
 
   // ---- act: the current lane at its deadline. ----
-  // What a candidate reads, the line lasting at a level: its 11 bits (the stop bit under way,
+  // What a candidate reads, the line lasting at a level, from its reader's bit count, shift
+  // register, tie and balances (`f`, ReadFields bits): its 11 bits (the stop bit under way,
   // bit 10, or decided) and a tie, then (EdgeRx::read_char, but for the glitches) {tie, false
   // start, byte, error: 0 none, 1 parity, 2 framing, 3 break}.
-  function automatic logic [12:0] read_ahead(input logic [RW-1:0] r, input logic level);
-    logic [PW:0]  total;
+  localparam int ReadFields = 4 + 11 + 1 + 2 * (PW + 1);
+  function automatic logic [ReadFields-1:0] read_fields(input logic [RW-1:0] r);
+    read_fields = {r[BitAt +: 4], r[ShiftAt +: 11], r[TieAt], r[LeadAt +: PW + 1],
+                   r[LagAt +: PW + 1]};
+  endfunction
+
+  function automatic logic [12:0] read_ahead(input logic [ReadFields-1:0] f, input logic level);
+    logic [3:0]   bits_done;
+    logic [10:0]  shift;
+    logic         tie;
+    logic [PW:0]  lead, lag, total;
     logic [11:0]  tb;
     logic [7:0]   byte_;
     logic [2:0]   error;
-    total = level ? r[LeadAt +: PW + 1] : r[LagAt +: PW + 1];
-    if (r[BitAt +: 4] == 4'd11) tb = {r[TieAt], r[ShiftAt +: 11]};
-    else tb = {r[TieAt] || total == {(PW + 1){1'b0}},
-               !total[PW] && total != {(PW + 1){1'b0}}, r[ShiftAt + 1 +: 10]};
+    {bits_done, shift, tie, lead, lag} = f;
+    total = level ? lead : lag;
+    if (bits_done == 4'd11) tb = {tie, shift};
+    else tb = {tie || total == {(PW + 1){1'b0}},
+               !total[PW] && total != {(PW + 1){1'b0}}, shift[10:1]};
     byte_ = tb[8:1];
     if (tb[10:0] == 11'd0) error = 3'd3;
     else if (!tb[10]) error = 3'd2;
@@ -270,10 +290,13 @@ module edge_rx #(
   // glitch count as that clock leaves it), so no reader's logic is on the way to it. (A
   // decision that makes the other lane current is followed by none for a while.)
   logic [4*13-1:0] ahead_q, ahead_d;
+  logic [ReadFields-1:0] cur_fields;
   always_comb begin
     for (int s = 0; s < 2; s++) begin
+      cur_fields = cur_q ? read_fields(readers_c[(2+s)*RW +: RW])
+                         : read_fields(readers_c[s*RW +: RW]);
       for (int lvl = 0; lvl < 2; lvl++) begin
-        ahead_d[(2*s + lvl)*13 +: 13] = read_ahead(readers_c[(2*cur_q + s)*RW +: RW], lvl[0]);
+        ahead_d[(2*s + lvl)*13 +: 13] = read_ahead(cur_fields, lvl[0]);
       end
     end
   end
@@ -285,14 +308,16 @@ module edge_rx #(
   logic          due, deciding, chose_last, both_good, c_first, c_last, d_first, d_last;
   logic          chosen_slot;
   logic [1:0]    due_q, due_d;
-  logic [TW-1:0] slot_start;
+  logic [1:0]    c_live, d_live, c_stage, c_over, c_low;
+  logic [2*TW-1:0] c_starts;
+  logic [IW-1:0] c_idle;
+  logic [3:0]    c_glitches;
   logic [63:0]   start32, end32;
-  logic [TW-1:0] end_first, end_last;
+  logic [TW-1:0] end_first, end_last, first_start;
   logic [31-TW:0] upper_less_one;
   logic          idle_pending_q, idle_pending_d;
   logic [TW-1:0] idle_from_q, idle_from_d;
   assign upper_less_one = now_i[31:TW] - 1'b1;
-  logic [1:0]    c_live, d_live;
   logic [11:0]   first_read, last_read, chosen;
   logic [TW-1:0] end_for_idle;
 
@@ -318,24 +343,33 @@ module edge_rx #(
     deciding          = 1'b0;
     idle_pending_d    = 1'b0;
     idle_from_d       = idle_from_q;
-    // The idle time of the lane a decision made current on the last clock (EdgeRx::decide
-    // writes it there and then): from the decided character's end, or its first start with
-    // none, to the lane's first fall. A lane still empty then gets its own at its first fall.
-    if (idle_pending_q && live_q[2*cur_q +: 2] != 2'b00) begin
-      idle_d[cur_q*IW +: IW] = idle_between(idle_from_q, opened_q[cur_q*TW +: TW]);
-    end
     // The current lane as the last clock left it. When it is due, a fall on this clock has
     // started nothing in it (below) and dropped only candidates the drop at the end of the
     // start bits drops too; in the stop bit it changes nothing: so the act reads registers,
     // and nothing of on_edge's is on the way to the decision.
-    c_live  = live_q[2*cur_q +: 2];
-    c_first = first_q[cur_q];
-    c_last  = c_live == 2'b11 ? !c_first : c_first;
+    c_live     = cur_q ? live_q[3:2] : live_q[1:0];
+    c_first    = cur_q ? first_q[1] : first_q[0];
+    c_last     = c_live == 2'b11 ? !c_first : c_first;
+    c_stage    = cur_q ? stage_q[3:2] : stage_q[1:0];
+    c_starts   = cur_q ? starts_q[2*TW +: 2*TW] : starts_q[0 +: 2*TW];
+    c_idle     = cur_q ? idle_q[IW +: IW] : idle_q[0 +: IW];
+    c_over     = cur_q ? start_over[3:2] : start_over[1:0];
+    c_low      = cur_q ? start_low_c[3:2] : start_low_c[1:0];
+    c_glitches = cur_q ? {readers_c[3*RW + GlitchesAt +: 2], readers_c[2*RW + GlitchesAt +: 2]}
+                       : {readers_c[RW + GlitchesAt +: 2], readers_c[GlitchesAt +: 2]};
+    // The idle time of the lane a decision made current on the last clock (EdgeRx::decide
+    // writes it there and then): from the decided character's end, or its first start with
+    // none, to the lane's first fall. A lane still empty then gets its own at its first fall.
+    for (int l = 0; l < 2; l++) begin
+      if (idle_pending_q && cur_q == l[0] && live_q[2*l +: 2] != 2'b00) begin
+        idle_d[l*IW +: IW] = idle_between(idle_from_q, opened_q[l*TW +: TW]);
+      end
+    end
     // Due by the deadline the last clock left, compared with this clock on the last one
     // (due_q): a fall on this clock that changes it (a candidate opened, its deadline ahead;
     // a dropped one, only when it was due already) does not change whether it is due.
-    due     = live_b[2*cur_q +: 2] != 2'b00 && start_reader[2*cur_q +: 2] == 2'b00
-           && due_q[cur_q];
+    due = (cur_q ? live_b[3:2] != 2'b00 && start_reader[3:2] == 2'b00 && due_q[1]
+                 : live_b[1:0] != 2'b00 && start_reader[1:0] == 2'b00 && due_q[0]);
     // Each lane's deadline against the next clock. A deadline written on this clock is ahead
     // of it (a start bit from now, the stop bit's middle or end of a candidate whose start bit
     // is over); one a drop wrote is no later than the one before, which was reached if it is.
@@ -343,15 +377,15 @@ module edge_rx #(
       due_d[l] = reached_next(deadline_q[l*TW +: TW]) && start_reader[2*l +: 2] == 2'b00;
     end
     // Its candidates dropped at the end of their start bits (by the readers through now).
-    for (int s = 0; s < 2; s++) begin
-      d_live[s] = c_live[s] && (!start_over[2*cur_q+s] || start_low_c[2*cur_q+s]);
-    end
-    d_first = !d_live[c_first] && d_live[!c_first] ? !c_first : c_first;
+    d_live  = c_live & (~c_over | c_low);
+    d_first = (c_first ? !d_live[1] && d_live[0] : !d_live[0] && d_live[1]) ? !c_first : c_first;
     d_last  = d_live == 2'b11 ? !d_first : d_first;
-    first_read = read_char(ahead_q[(2*int'(c_first) + int'(level_i))*13 +: 13],
-                           readers_c[(2*cur_q + int'(c_first))*RW + GlitchesAt +: 2]);
-    last_read  = read_char(ahead_q[(2*int'(c_last) + int'(level_i))*13 +: 13],
-                           readers_c[(2*cur_q + int'(c_last))*RW + GlitchesAt +: 2]);
+    first_read = read_char(c_first ? ahead_q[(2 + int'(level_i))*13 +: 13]
+                                   : ahead_q[int'(level_i)*13 +: 13],
+                           c_first ? c_glitches[3:2] : c_glitches[1:0]);
+    last_read  = read_char(c_last ? ahead_q[(2 + int'(level_i))*13 +: 13]
+                                  : ahead_q[int'(level_i)*13 +: 13],
+                           c_last ? c_glitches[3:2] : c_glitches[1:0]);
     // EdgeRx::decide's choice between the two candidates (the first when it is alone).
     both_good  = !first_read[11] && first_read[2:0] == 3'd0
               && !last_read[11] && last_read[2:0] == 3'd0;
@@ -364,62 +398,66 @@ module edge_rx #(
     if (c_live == 2'b11 && both_good && first_read[10:3] != last_read[10:3]) chosen[2:0] = 3'd4;
     chosen_slot  = chose_last ? c_last : c_first;
     // The ends of both candidates from registers, the read only choosing.
-    end_first    = starts_q[(2*cur_q + int'(c_first))*TW +: TW] + TW'(stop_end_i);
-    end_last     = starts_q[(2*cur_q + int'(c_last))*TW +: TW] + TW'(stop_end_i);
-    end_for_idle = chosen[11] ? starts_q[(2*cur_q + int'(c_first))*TW +: TW]
-                 : chose_last ? end_last : end_first;
-    // Each candidate's start and end as 32-bit ticks: now_i's upper bits, less one if the
-    // start's low bits are past now's (it came before they wrapped); the read only chooses.
+    first_start  = start_of(c_starts, c_first);
+    end_first    = first_start + TW'(stop_end_i);
+    end_last     = start_of(c_starts, c_last) + TW'(stop_end_i);
+    end_for_idle = chosen[11] ? first_start : chose_last ? end_last : end_first;
+    // Each slot's start and end as 32-bit ticks: now_i's upper bits, less one if the start's
+    // low bits are past now's (it came before they wrapped); the read only chooses.
     for (int s = 0; s < 2; s++) begin
-      slot_start = starts_q[(2*cur_q + s)*TW +: TW];
-      start32[s*32 +: 32] = {slot_start > now ? upper_less_one : now_i[31:TW], slot_start};
+      start32[s*32 +: 32] = {c_starts[s*TW +: TW] > now ? upper_less_one : now_i[31:TW],
+                             c_starts[s*TW +: TW]};
       end32[s*32 +: 32]   = start32[s*32 +: 32] + 32'(stop_end_i);
     end
-    if (due) begin
-      case (stage_q[2*cur_q +: 2])
-        StartBit: begin
-          // Every candidate's start bit is over by now.
-          live_d[2*cur_q +: 2] = d_live;
-          first_d[cur_q]       = d_first;
-          if (d_live != 2'b00) begin
-            stage_d[2*cur_q +: 2]     = StopMiddle;
-            deadline_d[cur_q*TW +: TW] = starts_q[(2*cur_q + int'(d_last))*TW +: TW]
-                                       + TW'(stop_middle_i);
-            next_from_d       = starts_q[(2*cur_q + int'(d_first))*TW +: TW] + TW'(stop_middle_i);
-            next_from_valid_d = 1'b1;
-            due_d[cur_q]      = 1'b0;
+    for (int l = 0; l < 2; l++) begin
+      if (due && cur_q == l[0]) begin
+        case (c_stage)
+          StartBit: begin
+            // Every candidate's start bit is over by now.
+            live_d[2*l +: 2] = d_live;
+            first_d[l]       = d_first;
+            if (d_live != 2'b00) begin
+              stage_d[2*l +: 2]      = StopMiddle;
+              deadline_d[l*TW +: TW] = start_of(c_starts, d_last) + TW'(stop_middle_i);
+              next_from_d            = start_of(c_starts, d_first) + TW'(stop_middle_i);
+              next_from_valid_d      = 1'b1;
+              due_d[l]               = 1'b0;
+            end
           end
-        end
-        StopMiddle: begin
-          if (!level_i) begin
-            due_d[cur_q]               = 1'b0;
-            stage_d[2*cur_q +: 2]      = StopEnd;
-            deadline_d[cur_q*TW +: TW] = starts_q[(2*cur_q + int'(c_last))*TW +: TW]
-                                       + TW'(stop_end_i);
-          end else begin
-            deciding = 1'b1;
+          StopMiddle: begin
+            if (!level_i) begin
+              due_d[l]               = 1'b0;
+              stage_d[2*l +: 2]      = StopEnd;
+              deadline_d[l*TW +: TW] = start_of(c_starts, c_last) + TW'(stop_end_i);
+            end else begin
+              deciding = 1'b1;
+            end
           end
-        end
-        default: deciding = 1'b1;
-      endcase
+          default: deciding = 1'b1;
+        endcase
+      end
     end
     if (deciding) begin
       char_o             = !chosen[11];
       char_byte_o        = chosen[10:3];
       char_error_o       = chosen[2:0];
-      char_start_o       = start32[int'(chosen_slot)*32 +: 32];
-      char_end_o         = end32[int'(chosen_slot)*32 +: 32];
-      char_idle_before_o = idle_q[cur_q*IW +: IW];
+      char_start_o       = chosen_slot ? start32[32 +: 32] : start32[0 +: 32];
+      char_end_o         = chosen_slot ? end32[32 +: 32] : end32[0 +: 32];
+      char_idle_before_o = c_idle;
       // This lane is closed; the other goes on as the character under way. Its idle time
       // from this character's end is written on the next clock (idle_pending_q), before its
       // own decision can read it.
-      live_d[2*cur_q +: 2]   = 2'b00;
-      first_d[cur_q]         = 1'b0;
-      stage_d[2*cur_q +: 2]  = StartBit;
-      cur_d                  = !cur_q;
-      next_from_valid_d      = 1'b0;
-      idle_pending_d         = 1'b1;
-      idle_from_d            = end_for_idle;
+      for (int l = 0; l < 2; l++) begin
+        if (cur_q == l[0]) begin
+          live_d[2*l +: 2]  = 2'b00;
+          first_d[l]        = 1'b0;
+          stage_d[2*l +: 2] = StartBit;
+        end
+      end
+      cur_d             = !cur_q;
+      next_from_valid_d = 1'b0;
+      idle_pending_d    = 1'b1;
+      idle_from_d       = end_for_idle;
     end
     if (hand_over_i || clear_i) begin
       // Afresh: both lanes free, lane 0 the current one.
@@ -434,11 +472,11 @@ module edge_rx #(
       if (hand_over_i && !clear_i && fell) begin
         // This clock's fall opens the character after the one the search decided, in slot 0
         // of lane 0.
-        live_d[1:0]        = 2'b01;
-        starts_d[0 +: TW]  = now;
-        start_low_d[0]     = 1'b0;
-        opened_d[0 +: TW]  = now;
-        idle_d[0 +: IW]    = idle_between(hand_over_end_i, now);
+        live_d[1:0]         = 2'b01;
+        starts_d[0 +: TW]   = now;
+        start_low_d[0]      = 1'b0;
+        opened_d[0 +: TW]   = now;
+        idle_d[0 +: IW]     = idle_between(hand_over_end_i, now);
         deadline_d[0 +: TW] = now + TW'(start_end_i);
       end
     end
@@ -480,11 +518,11 @@ module edge_rx #(
     end
   end
 
-  assign active_o          = live_q[2*cur_q +: 2] != 2'b00;
-  assign active_next_o     = live_d[2*cur_d +: 2] != 2'b00;
-  assign deadline_o        = deadline_q[cur_q*TW +: TW];
-  assign stage_o           = stage_q[2*cur_q +: 2];
-  assign next_active_o     = live_q[2*(!cur_q) +: 2] != 2'b00;
+  assign active_o          = cur_q ? live_q[3:2] != 2'b00 : live_q[1:0] != 2'b00;
+  assign active_next_o     = cur_d ? live_d[3:2] != 2'b00 : live_d[1:0] != 2'b00;
+  assign deadline_o        = cur_q ? deadline_q[TW +: TW] : deadline_q[0 +: TW];
+  assign stage_o           = cur_q ? stage_q[3:2] : stage_q[1:0];
+  assign next_active_o     = cur_q ? live_q[1:0] != 2'b00 : live_q[3:2] != 2'b00;
   assign next_from_valid_o = next_from_valid_q;
   assign next_from_o       = next_from_q;
 endmodule

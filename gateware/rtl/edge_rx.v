@@ -5,8 +5,9 @@
 // Each clock takes the synchronised line (level_i, and edge_i: it changed on this clock) and
 // does what the transceiver's tick does with the model, in its order: on_edge (a fall after
 // idle_before_i idle clocks opens a candidate), then act when the character under way falls
-// due (its deadline reached), which may decide a character (char_o and its fields, this
-// clock). hand_over_i is the search's hand-over of this clock instead (EdgeRx::hand_over: the
+// due (its deadline reached), which may decide a character. The character goes out on the
+// next clock, from registers (char_o and its fields): the transceiver's register between the
+// receiver's decision and the delimiter (Transceiver's `decided`). hand_over_i is the search's hand-over of this clock instead (EdgeRx::hand_over: the
 // receiver starts afresh, with this clock's fall; hand_over_end_i is the detected character's
 // end, its low TickWidth bits), clear_i the transceiver's reset of it after everything else (a rate dropped or changed).
 //
@@ -52,8 +53,8 @@ module edge_rx #(
   input  wire                   hand_over_i,
   input  wire [TickWidth-1:0]   hand_over_end_i,
   input  wire                   clear_i,
-  // A character decided on this clock: its byte, error (0 none, 1 parity, 2 framing, 3 break,
-  // 4 noise: delimiter.v's code), start and end ticks, and the idle clocks before it.
+  // A character decided on the last clock: its byte, error (0 none, 1 parity, 2 framing, 3
+  // break, 4 noise: delimiter.v's code), start and end ticks, and the idle clocks before it.
   output logic                  char_o,
   output logic [7:0]            char_byte_o,
   output logic [2:0]            char_error_o,
@@ -158,6 +159,13 @@ module edge_rx #(
   logic [4*RW-1:0] readers_c;
   logic [3:0]      start_low_c, start_ends, start_over;
 
+  // Each slot's start bit's end from the registers: a fall's choice of a candidate only
+  // picks one.
+  logic [4*TW-1:0] start_ends_at;
+  for (genvar k = 0; k < 4; k++) begin : g_slot_ticks
+    assign start_ends_at[k*TW +: TW] = starts_q[k*TW +: TW] + TW'(start_end_i);
+  end
+
   always_comb begin
     fell         = edge_i && !level_i;
     // From the middle of the current first candidate's stop bit on, falls open the next one.
@@ -188,8 +196,7 @@ module edge_rx #(
           first_b[l] = first_slot;
           // The last candidate kept, at the end of its start bit.
           last_slot = keep == 2'b11 ? !first_slot : first_slot;
-          deadline_b[l*TW +: TW] = start_of(starts_q[2*l*TW +: 2*TW], last_slot)
-                                 + TW'(start_end_i);
+          deadline_b[l*TW +: TW] = start_of(start_ends_at[2*l*TW +: 2*TW], last_slot);
         end
         if (live_b[2*l +: 2] == 2'b00) begin
           // The first candidate of a character, in slot 0.
@@ -290,6 +297,9 @@ module edge_rx #(
   // glitch count as that clock leaves it), so no reader's logic is on the way to it. (A
   // decision that makes the other lane current is followed by none for a while.)
   logic [4*13-1:0] ahead_q, ahead_d;
+  // Whether each of those is a good character but for its glitches: no tie, no false start,
+  // no error.
+  logic [3:0]      good_ahead_q, good_ahead_d;
   logic [ReadFields-1:0] cur_fields;
   always_comb begin
     for (int s = 0; s < 2; s++) begin
@@ -297,19 +307,27 @@ module edge_rx #(
                          : read_fields(readers_c[s*RW +: RW]);
       for (int lvl = 0; lvl < 2; lvl++) begin
         ahead_d[(2*s + lvl)*13 +: 13] = read_ahead(cur_fields, lvl[0]);
+        good_ahead_d[2*s + lvl] = ahead_d[(2*s + lvl)*13 + 11 +: 2] == 2'b00
+                               && ahead_d[(2*s + lvl)*13 +: 3] == 3'd0;
       end
     end
   end
   always_ff @(posedge clk_i or negedge rst_ni) begin
-    if (!rst_ni) ahead_q <= '0;
-    else ahead_q <= ahead_d;
+    if (!rst_ni) begin
+      ahead_q      <= '0;
+      good_ahead_q <= '0;
+    end else begin
+      ahead_q      <= ahead_d;
+      good_ahead_q <= good_ahead_d;
+    end
   end
 
   logic          due, deciding, chose_last, both_good, c_first, c_last, d_first, d_last;
+  logic          first_good, last_good;
   logic          chosen_slot;
   logic [1:0]    due_q, due_d;
   logic [1:0]    c_live, d_live, c_stage, c_over, c_low;
-  logic [2*TW-1:0] c_starts;
+  logic [2*TW-1:0] c_starts, c_stop_middles;
   logic [IW-1:0] c_idle;
   logic [3:0]    c_glitches;
   logic [63:0]   start32, end32;
@@ -319,6 +337,11 @@ module edge_rx #(
   logic [TW-1:0] idle_from_q, idle_from_d;
   assign upper_less_one = now_i[31:TW] - 1'b1;
   logic [11:0]   first_read, last_read, chosen;
+  logic          char_d;
+  logic [7:0]    char_byte_d;
+  logic [2:0]    char_error_d;
+  logic [31:0]   char_start_d, char_end_d;
+  logic [IW-1:0] char_idle_before_d;
   logic [TW-1:0] end_for_idle;
 
   always_comb begin
@@ -334,12 +357,7 @@ module edge_rx #(
     cur_d             = cur_q;
     next_from_d       = next_from_q;
     next_from_valid_d = next_from_valid_q;
-    char_o            = 1'b0;
-    char_byte_o       = '0;
-    char_error_o      = '0;
-    char_start_o      = '0;
-    char_end_o        = '0;
-    char_idle_before_o = '0;
+    char_d            = 1'b0;
     deciding          = 1'b0;
     idle_pending_d    = 1'b0;
     idle_from_d       = idle_from_q;
@@ -352,6 +370,9 @@ module edge_rx #(
     c_last     = c_live == 2'b11 ? !c_first : c_first;
     c_stage    = cur_q ? stage_q[3:2] : stage_q[1:0];
     c_starts   = cur_q ? starts_q[2*TW +: 2*TW] : starts_q[0 +: 2*TW];
+    // The middles of the current lane's candidates' stop bits, from the registers: the act's
+    // choice of a candidate only picks one.
+    c_stop_middles = {c_starts[TW +: TW] + TW'(stop_middle_i), c_starts[0 +: TW] + TW'(stop_middle_i)};
     c_idle     = cur_q ? idle_q[IW +: IW] : idle_q[0 +: IW];
     c_over     = cur_q ? start_over[3:2] : start_over[1:0];
     c_low      = cur_q ? start_low_c[3:2] : start_low_c[1:0];
@@ -387,11 +408,16 @@ module edge_rx #(
                                   : ahead_q[int'(level_i)*13 +: 13],
                            c_last ? c_glitches[3:2] : c_glitches[1:0]);
     // EdgeRx::decide's choice between the two candidates (the first when it is alone).
-    both_good  = !first_read[11] && first_read[2:0] == 3'd0
-              && !last_read[11] && last_read[2:0] == 3'd0;
+    // A good reading: no false start, no error, no tie (made a clock ahead: `good_ahead`), and
+    // no more glitches than the receiver takes.
+    first_good = (c_first ? good_ahead_q[2 + int'(level_i)] : good_ahead_q[int'(level_i)])
+              && (c_first ? c_glitches[3:2] : c_glitches[1:0]) != 2'd3;
+    last_good  = (c_last ? good_ahead_q[2 + int'(level_i)] : good_ahead_q[int'(level_i)])
+              && (c_last ? c_glitches[3:2] : c_glitches[1:0]) != 2'd3;
+    both_good  = first_good && last_good;
     if (c_live != 2'b11) chose_last = 1'b0;
-    else if (!last_read[11] && last_read[2:0] == 3'd0) chose_last = 1'b1;
-    else if (!first_read[11] && first_read[2:0] == 3'd0) chose_last = 1'b0;
+    else if (last_good) chose_last = 1'b1;
+    else if (first_good) chose_last = 1'b0;
     else chose_last = first_read[11];
     chosen = chose_last ? last_read : first_read;
     // Two different good characters: the line does not say which it was.
@@ -418,8 +444,8 @@ module edge_rx #(
             first_d[l]       = d_first;
             if (d_live != 2'b00) begin
               stage_d[2*l +: 2]      = StopMiddle;
-              deadline_d[l*TW +: TW] = start_of(c_starts, d_last) + TW'(stop_middle_i);
-              next_from_d            = start_of(c_starts, d_first) + TW'(stop_middle_i);
+              deadline_d[l*TW +: TW] = start_of(c_stop_middles, d_last);
+              next_from_d            = start_of(c_stop_middles, d_first);
               next_from_valid_d      = 1'b1;
               due_d[l]               = 1'b0;
             end
@@ -437,13 +463,14 @@ module edge_rx #(
         endcase
       end
     end
+    // The character's fields are loaded on every clock, and read only with char_o.
+    char_byte_d        = chosen[10:3];
+    char_error_d       = chosen[2:0];
+    char_start_d       = chosen_slot ? start32[32 +: 32] : start32[0 +: 32];
+    char_end_d         = chosen_slot ? end32[32 +: 32] : end32[0 +: 32];
+    char_idle_before_d = c_idle;
     if (deciding) begin
-      char_o             = !chosen[11];
-      char_byte_o        = chosen[10:3];
-      char_error_o       = chosen[2:0];
-      char_start_o       = chosen_slot ? start32[32 +: 32] : start32[0 +: 32];
-      char_end_o         = chosen_slot ? end32[32 +: 32] : end32[0 +: 32];
-      char_idle_before_o = c_idle;
+      char_d             = !chosen[11];
       // This lane is closed; the other goes on as the character under way. Its idle time
       // from this character's end is written on the next clock (idle_pending_q), before its
       // own decision can read it.
@@ -460,8 +487,9 @@ module edge_rx #(
       idle_from_d       = end_for_idle;
     end
     if (hand_over_i || clear_i) begin
-      // Afresh: both lanes free, lane 0 the current one.
-      char_o            = 1'b0;
+      // Afresh: both lanes free, lane 0 the current one. A hand-over is this clock's instead
+      // of the act, so it decides nothing; a clear comes after the act.
+      if (hand_over_i) char_d = 1'b0;
       live_d            = '0;
       first_d           = '0;
       stage_d           = {StartBit, StartBit};
@@ -499,6 +527,12 @@ module edge_rx #(
       idle_pending_q    <= 1'b0;
       idle_from_q       <= '0;
       due_q             <= '0;
+      char_o            <= 1'b0;
+      char_byte_o       <= '0;
+      char_error_o      <= '0;
+      char_start_o      <= '0;
+      char_end_o        <= '0;
+      char_idle_before_o <= '0;
     end else begin
       live_q            <= live_d;
       first_q           <= first_d;
@@ -515,6 +549,12 @@ module edge_rx #(
       idle_pending_q    <= idle_pending_d;
       idle_from_q       <= idle_from_d;
       due_q             <= due_d;
+      char_o            <= char_d;
+      char_byte_o       <= char_byte_d;
+      char_error_o      <= char_error_d;
+      char_start_o      <= char_start_d;
+      char_end_o        <= char_end_d;
+      char_idle_before_o <= char_idle_before_d;
     end
   end
 

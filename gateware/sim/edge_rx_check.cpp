@@ -1,14 +1,15 @@
 // edge_rx under the stimulus of crates/rtl-check (`rtl_check::blocks::edge_rx`).
 //
 // Records: 'T' u32 modulo, quarter, three_quarters, half_less_inc, modulo_less_inc,
-// modulo_less_two_inc, start_end, stop_middle, stop_end (the rate's figures, held); 'N' u32 (now_i of the next clock; it counts up a clock at a time); 'L' u8 level, u32 n
-// (n clocks, the line held at level: no edge); 'K' u8 flags (bit 0 the line's level, an edge
-// if it changed; bit 1 hand_over_i; bit 2 clear_i), u32 idle_before, u32 hand_over_end (one
-// clock). Outputs each clock after its edge: bit 0 active_o, bit 1 char_o (of that clock),
-// bits 2-3 stage_o, bit 4 next_active_o, bit 5 next_from_valid_o. An event on each clock with
-// a character or a change of lane 0's deadline or next_from: the character (u8 byte, u8 error,
-// u32 start, end, idle before; zeros with none), the deadline and next_from (u32 each, the
-// RTL's TickWidth bits; all ones with none).
+// modulo_less_two_inc, start_end, stop_middle, stop_end (the rate's figures, held); 'N' u32
+// (now_i of the next clock; it counts up a clock at a time); 'L' u8 level, u32 n (n clocks,
+// the line held at level: no edge); 'K' u8 flags (bit 0 the line's level, an edge if it
+// changed; bit 1 hand_over_i; bit 2 clear_i), u32 idle_before, u32 hand_over_end (one clock).
+// Outputs each clock after its edge: bit 0 active_o, bit 1 char_o (out on that clock, decided
+// on the one before), bits 2-3 stage_o, bit 4 next_active_o, bit 5 next_from_valid_o. An event
+// on each clock with a character or a change of the current lane's deadline or next_from: the
+// character (u8 byte, u8 error, u32 start, end, idle before; zeros with none), the deadline
+// and next_from (u32 each, the RTL's TickWidth bits; all ones with none).
 #include <memory>
 
 #include "Vedge_rx.h"
@@ -37,7 +38,7 @@ int main(int argc, char** argv) {
     top->idle_before_i = idle;
     top->hand_over_end_i = end;
     line = level;
-    // The character is this clock's: read it before the edge commits it.
+    // The character out on this clock (decided on the last): read it before the edge.
     top->clk_i = 0;
     top->eval();
     bool got = top->char_o;

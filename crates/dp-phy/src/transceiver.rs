@@ -147,6 +147,11 @@ pub struct Transceiver {
     fallback: Option<Baud>,
     /// The last character taken ends on this tick (its stop bit's end).
     last_end: Tick,
+    /// The character the receiver decided on the last clock, with the idle clocks before it:
+    /// delivered on this one, first thing. A register between the receiver's decision and the
+    /// delimiter, as the gateware has it (README "Gateware": the decision's logic and the
+    /// delimiter's do not fit one 48 MHz clock together).
+    decided: Option<(RxChar, Tick)>,
     /// The last tick the transmitter drove the line: a character that started by then is the
     /// transceiver's own echo.
     drove_until: Tick,
@@ -181,6 +186,7 @@ impl Transceiver {
             trial_since: 0,
             fallback: None,
             last_end: 0,
+            decided: None,
             drove_until: 0,
             watchdog: Watchdog::STOPPED,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
@@ -286,7 +292,7 @@ impl Transceiver {
     /// character under way).
     fn quiet_since(&self) -> Tick {
         match self.heard() {
-            Some(b) if self.sync_q.out && !self.rx_q.active() => {
+            Some(b) if self.sync_q.out && !self.rx_q.active() && self.decided.is_none() => {
                 self.last_end.max(self.search_q.high_since[b.index()])
             }
             _ => self.now,
@@ -313,6 +319,12 @@ impl Transceiver {
     pub fn tick(&mut self, line: bool) -> TickOut {
         let mut out = TickOut::default();
         let now = self.now;
+        if let Some((c, idle_before)) = self.decided.take() {
+            self.last_end = c.end;
+            if c.start > self.drove_until {
+                self.on_char(&c, idle_before, &mut out);
+            }
+        }
         let (sf, sfq) = filter::next(line, SYNC_FILTER_LEN, &self.sync_q);
         // Idle before a fall, worked out before it counts: a character's TSYN.
         let idle_before = if sf.fell { self.idle() } else { 0 };
@@ -342,20 +354,18 @@ impl Transceiver {
 
         if let (Some(rx), false) = (self.rx, switched) {
             if now >= self.rx_q.deadline {
-                if let Some((c, idle_before)) = rx.act(now, sf.level, &mut self.rx_q) {
-                    self.last_end = c.end;
-                    if c.start > self.drove_until {
-                        self.on_char(&c, idle_before, &mut out);
-                    }
-                }
+                // Delivered on the next clock.
+                self.decided = rx.act(now, sf.level, &mut self.rx_q);
             }
-            if !self.rx_q.active() {
+            // A character decided and not yet delivered is under way still.
+            let taking = self.rx_q.active() || self.decided.is_some();
+            if !taking {
                 let d = self.delimiter.on_idle(self.idle(), now);
                 self.on_delivery(d, &mut out);
             }
             // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
             // the watchdog, so it expires only between telegrams.
-            if !self.delimiter.inside() && self.watchdog.expire(now) {
+            if self.decided.is_none() && !self.delimiter.inside() && self.watchdog.expire(now) {
                 self.stats.watchdog_expiries += 1;
                 self.search_again(&mut out);
             }
@@ -500,8 +510,12 @@ impl Transceiver {
 
     /// Ticks that a constant `line` lets pass with nothing but counters moving.
     pub fn quiet_for(&self, line: bool) -> Tick {
-        // An edge is ticked: the search and the receiver both act on it.
+        // An edge is ticked: the search and the receiver both act on it; so is a character
+        // decided and not yet delivered.
         let now = self.now;
+        if self.decided.is_some() {
+            return 0;
+        }
         let (sync_quiet, _) = filter::quiet_for(line, SYNC_FILTER_LEN, &self.sync_q);
         if sync_quiet == 0 {
             return 0;

@@ -50,6 +50,9 @@ struct RxCase {
     events: Vec<Event>,
     clock: u32,
     last_lanes: [u32; 2],
+    /// The character decided on the last clock, out on this one: the transceiver's register
+    /// between the decision and the delimiter (`decided`), which edge_rx.v's outputs are.
+    decided: Option<(dp_phy::uart::RxChar, Tick)>,
     seen: Seen,
 }
 
@@ -81,6 +84,7 @@ impl RxCase {
             events: Vec::new(),
             clock: 0,
             last_lanes: [u32::MAX; 2],
+            decided: None,
             seen: Seen::default(),
         };
         case.stimulus.push(b'N');
@@ -121,7 +125,7 @@ impl RxCase {
         }
         let fell = self.line && !level;
         self.line = level;
-        let mut got = None;
+        let got = self.decided.take();
         let seen = &mut self.seen;
         seen.two_candidates += u32::from(self.q.current().n_starts() == 2);
         seen.next_lane += u32::from(self.q.next().n_starts() > 0);
@@ -138,7 +142,7 @@ impl RxCase {
             let start = end - self.rx.timing.clocks_for(11, 1);
             self.rx.hand_over(start, end, now, fell, &mut self.q);
         } else if now >= self.q.deadline {
-            got = self.rx.act(now, level, &mut self.q);
+            self.decided = self.rx.act(now, level, &mut self.q);
         }
         if clear {
             self.q = EdgeRxQ {

@@ -20,7 +20,9 @@
 //!   the line held longer within it: a glitch shorter than half a bit cannot turn a bit, nor an
 //!   edge it moved, so glitches inside a telegram cost nothing. Where a glitch leaves two falls
 //!   within a start bit, it reads the character from both. Its characters and idle line are
-//!   the line's times: no filter holds the line back.
+//!   the line's times: no filter holds the line back. A character goes to the delimiter a
+//!   clock after the receiver decides it (a register between the two, as in the gateware);
+//!   until then it is under way.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
 //! - A response handed to [`Transceiver::respond`] starts no earlier than min TSDR bit times after

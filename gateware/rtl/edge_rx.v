@@ -1,15 +1,18 @@
 // The receiver at a known rate: dp_phy::edge_rx::EdgeRx's twin (crates/dp-phy/src/edge_rx.rs),
 // register for register but for read_until (the readers here take every clock as it comes; the
-// model passes the clocks between its events at once).
+// model passes the clocks between its events at once) and the registers that do work a clock
+// ahead (ahead_q, good_ahead_q, due_q, idle_pending_q; below).
 //
 // Each clock takes the synchronised line (level_i, and edge_i: it changed on this clock) and
 // does what the transceiver's tick does with the model, in its order: on_edge (a fall after
 // idle_before_i idle clocks opens a candidate), then act when the character under way falls
 // due (its deadline reached), which may decide a character. The character goes out on the
 // next clock, from registers (char_o and its fields): the transceiver's register between the
-// receiver's decision and the delimiter (Transceiver's `decided`). hand_over_i is the search's hand-over of this clock instead (EdgeRx::hand_over: the
-// receiver starts afresh, with this clock's fall; hand_over_end_i is the detected character's
-// end, its low TickWidth bits), clear_i the transceiver's reset of it after everything else (a rate dropped or changed).
+// receiver's decision and the delimiter (Transceiver's `decided`). hand_over_i is the search's
+// hand-over of this clock instead of the act (EdgeRx::hand_over: the receiver starts afresh,
+// with this clock's fall; hand_over_end_i is the detected character's end, its low TickWidth
+// bits), clear_i the transceiver's reset of it after everything else (a rate dropped or
+// changed).
 //
 // Two lanes of two slots: the lane cur_q the character under way, the other the next one, whose
 // candidates the falls from next_from on open while the current one's decision is pending; at
@@ -20,11 +23,11 @@
 //
 // What changed for hardware: ticks are TickWidth bits (the model's u64 truncated to 18: every
 // tick kept is within two characters of now at 9.6k, so a signed difference orders them; the
-// character's start and end go out as 32-bit ticks, now_i's); the idle clocks are 24 bits,
-// saturating (TSYN at 9.6k is 165,000 clocks); a lane's deadline is valid while it has
-// candidates (the model's Tick::MAX otherwise); a free slot's reader runs on, its registers no
-// one's until a start (the model holds them); the receiver's own timing is whole clocks, so
-// every reader's phase step (the model's inc) is 1.
+// character's start and end go out as 32-bit ticks, now_i's); the idle clocks are 24 bits (the
+// transceiver saturates the ones it gives; TSYN at 9.6k is 165,000 clocks); a lane's deadline
+// is valid while it has candidates (the model's Tick::MAX otherwise); a free slot's reader runs
+// on, its registers no one's until a start (the model holds them); the receiver's own timing is
+// whole clocks, so every reader's phase step (the model's inc) is 1.
 `default_nettype none
 
 module edge_rx #(
@@ -106,7 +109,7 @@ module edge_rx #(
   logic [TW-1:0] now;
   assign now = now_i[TW-1:0];
 
-  // The idle clocks from `from` to `to`: 0 if `to` comes first, saturating at IdleWidth bits.
+  // The idle clocks from `from` to `to`: 0 if `to` comes first (TickWidth bits fit IdleWidth).
   function automatic logic [IW-1:0] idle_between(input logic [TW-1:0] from, to);
     logic [TW-1:0] diff;
     diff = to - from;

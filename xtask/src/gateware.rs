@@ -7,8 +7,8 @@
 //! search, the block that decides the part, on the FPGA at its sample clock. It fails where a
 //! tool fails, the search does not fit, or nextpnr's Fmax is under the clock. The receiver is
 //! placed and routed alone too, in a wrapper that registers its outputs
-//! (`gateware/fit/edge_rx_fit.v`), and its cells and Fmax printed: figures to work on, not yet
-//! a gate. There is no top module yet (issue 27), so no bitstream: its last line says so, with
+//! (`gateware/fit/edge_rx_fit.v`), and beside the search (`search_and_receiver_fit.v`), and
+//! their cells and Fmax printed: figures to work on, not yet a gate. There is no top module yet (issue 27), so no bitstream: its last line says so, with
 //! the search's figures.
 //! The tools are installed where missing: into a virtual environment under `target/yowasp`
 //! (pip, pinned versions), or the error says which command to run.
@@ -106,6 +106,31 @@ pub fn run(args: &[String]) -> Result<()> {
         "  the receiver alone on the part (gateware/fit/edge_rx_fit.v): {rx_used}/{total} logic cells ({}%), Fmax {rx_fmax:.1} MHz{}",
         rx_used * 100 / total.max(1),
         if rx_fmax < clock_mhz { " (under the clock: issue 27)" } else { "" }
+    );
+    // The two together: what sharing the fabric does to them.
+    let pair = Block {
+        top: "search_and_receiver_fit",
+        rtl: &[
+            "../fit/search_and_receiver_fit.v",
+            "../fit/edge_rx_fit.v",
+            "edge_rx.v",
+            "char_reader_step.v",
+            "autobaud.v",
+            "autobaud_shared.v",
+            "autobaud_channel.v",
+            "autobaud_channel_step.v",
+        ],
+        signals: &[],
+        params: Vec::new(),
+        twin: "dp_phy::autobaud::AutoBaud and dp_phy::edge_rx::EdgeRx",
+        events: false,
+    };
+    synthesise(&tools, &pair, &root)?;
+    let (pair_used, _, pair_fmax) = place_and_route(&tools, &pair, &root, true)?;
+    println!(
+        "  the search and the receiver together (gateware/fit/search_and_receiver_fit.v): {pair_used}/{total} logic cells ({}%), Fmax {pair_fmax:.1} MHz{}",
+        pair_used * 100 / total.max(1),
+        if pair_fmax < clock_mhz { " (under the clock: issue 27)" } else { "" }
     );
     println!(
         "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: no top module yet)",

@@ -73,11 +73,9 @@ int main(int argc, char** argv) {
   top->hand_over_i = 0;
   top->clear_i = 0;
   harness::reset(*top);
-  {
-    // The lanes as reset leaves them: what the first clock is compared with.
-    put(last_lanes, 0xFFFFFFFFu, 4);
-    put(last_lanes, 0xFFFFFFFFu, 4);
-  }
+  // The lanes as reset leaves them: what the first clock is compared with.
+  put(last_lanes, 0xFFFFFFFFu, 4);
+  put(last_lanes, 0xFFFFFFFFu, 4);
   for (int op; (op = in.op()) >= 0;) {
     switch (op) {
       case 'T':

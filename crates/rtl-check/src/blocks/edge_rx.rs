@@ -61,7 +61,7 @@ struct RxCase {
 pub struct Seen {
     /// Characters decided, by delimiter.v's error code.
     pub chars: [u32; 5],
-    /// Clocks with two candidates in lane 0, and with lane 1 under way.
+    /// Clocks with two candidates in the current lane, and with the next one under way.
     pub two_candidates: u32,
     pub next_lane: u32,
     /// Decisions at the stop bit's end (the line low at its middle).
@@ -70,6 +70,20 @@ pub struct Seen {
     pub hand_overs_falling: u32,
     pub hand_overs: u32,
     pub clears: u32,
+}
+
+impl std::ops::AddAssign for Seen {
+    fn add_assign(&mut self, other: Seen) {
+        for (total, n) in self.chars.iter_mut().zip(other.chars) {
+            *total += n;
+        }
+        self.two_candidates += other.two_candidates;
+        self.next_lane += other.next_lane;
+        self.stop_end += other.stop_end;
+        self.hand_overs_falling += other.hand_overs_falling;
+        self.hand_overs += other.hand_overs;
+        self.clears += other.clears;
+    }
 }
 
 impl RxCase {
@@ -261,11 +275,11 @@ fn random_line(case: &mut RxCase, rng: &mut ChaCha8Rng, baud: Baud, bits: u64) {
                 for _ in 0..rng.gen_range(1..4) {
                     let byte: u8 = rng.gen();
                     let levels = char_bits(byte);
-                    let mut toggles: Vec<(u64, bool)> = Vec::new();
+                    let mut toggles: Vec<u64> = Vec::new();
                     let mut level = case.line;
                     for (i, &b) in levels.iter().enumerate() {
                         if b != level {
-                            toggles.push((master.clocks_for(i as u64, 1), b));
+                            toggles.push(master.clocks_for(i as u64, 1));
                             level = b;
                         }
                     }
@@ -275,18 +289,18 @@ fn random_line(case: &mut RxCase, rng: &mut ChaCha8Rng, baud: Baud, bits: u64) {
                         for _ in 0..rng.gen_range(1..3) {
                             let at = rng.gen_range(1..length);
                             let len = rng.gen_range(1..=bit / 2 + 1);
-                            toggles.push((at, true));
-                            toggles.push((at + len, true));
+                            toggles.extend([at, at + len]);
                         }
                     }
-                    toggles.sort_by_key(|t| t.0);
-                    // The glitches' toggles flip the level the character holds there.
+                    toggles.sort_unstable();
+                    // The glitches' toggles flip the level the character holds there: two on
+                    // one clock are none.
                     let mut edges: Vec<u64> = Vec::new();
-                    for (at, _) in &toggles {
-                        if edges.last() == Some(at) {
+                    for at in toggles {
+                        if edges.last() == Some(&at) {
                             edges.pop();
                         } else {
-                            edges.push(*at);
+                            edges.push(at);
                         }
                     }
                     let start = case.now;
@@ -374,16 +388,7 @@ fn cases_seen(quick: bool) -> (Vec<Case>, Seen) {
             let mut case = RxCase::new(baud, start);
             case.hold(rng.gen_range(1..1000));
             random_line(&mut case, &mut rng, baud, if quick { 400 } else { 1500 });
-            let s = case.seen;
-            for (total, n) in all.chars.iter_mut().zip(s.chars) {
-                *total += n;
-            }
-            all.two_candidates += s.two_candidates;
-            all.next_lane += s.next_lane;
-            all.stop_end += s.stop_end;
-            all.hand_overs_falling += s.hand_overs_falling;
-            all.hand_overs += s.hand_overs;
-            all.clears += s.clears;
+            all += case.seen;
             cases.push(case.finish(format!("edge_rx-{baud}-{run}")));
         }
     }

@@ -9,13 +9,15 @@ module edge_rx_fit (
   input  wire clk_i,
   input  wire rst_ni,
   input  wire figures_i,
+  input  wire step_i,
   input  wire level_i,
   input  wire edge_i,
   input  wire hand_over_i,
   input  wire clear_i,
   output wire fold_o
 );
-  localparam int FiguresWidth = 6 * 13 + 3 * 16 + 24 + 18;
+  localparam int PW = 7;
+  localparam int FiguresWidth = 7 * PW + (PW + 1) + 3 * 16 + 24 + 18;
   logic [FiguresWidth-1:0] figures_q;
   logic [31:0]             now_q;
   always_ff @(posedge clk_i) begin
@@ -30,14 +32,17 @@ module edge_rx_fit (
   logic [23:0] idle_before;
   logic [17:0] deadline, next_from;
   logic [1:0]  stage;
-  edge_rx u_edge_rx (
+  localparam int Offsets = 8 * PW + 1;
+  edge_rx #(.PhaseWidth(PW)) u_edge_rx (
     .clk_i, .rst_ni, .now_i(now_q),
-    .modulo_i(figures_q[0 +: 13]), .quarter_i(figures_q[13 +: 13]),
-    .three_quarters_i(figures_q[26 +: 13]), .half_less_inc_i(figures_q[39 +: 13]),
-    .modulo_less_inc_i(figures_q[52 +: 13]), .modulo_less_two_inc_i(figures_q[65 +: 13]),
-    .start_end_i(figures_q[78 +: 16]), .stop_middle_i(figures_q[94 +: 16]),
-    .stop_end_i(figures_q[110 +: 16]), .level_i, .edge_i,
-    .idle_before_i(figures_q[126 +: 24]), .hand_over_i, .hand_over_end_i(figures_q[150 +: 18]),
+    .inc_i(figures_q[0 +: PW]), .modulo_i(figures_q[PW +: PW]),
+    .quarter_i(figures_q[2*PW +: PW]), .three_quarters_i(figures_q[3*PW +: PW]),
+    .half_less_inc_i(figures_q[4*PW +: PW]), .modulo_less_inc_i(figures_q[5*PW +: PW]),
+    .modulo_less_two_inc_i(figures_q[6*PW +: PW]), .two_inc_i(figures_q[7*PW +: PW + 1]),
+    .start_end_i(figures_q[Offsets +: 16]), .stop_middle_i(figures_q[Offsets + 16 +: 16]),
+    .stop_end_i(figures_q[Offsets + 32 +: 16]), .step_i, .level_i, .edge_i,
+    .idle_before_i(figures_q[Offsets + 48 +: 24]), .hand_over_i,
+    .hand_over_end_i(figures_q[Offsets + 72 +: 18]),
     .clear_i,
     .char_o(char_), .char_byte_o(byte_), .char_error_o(error), .char_start_o(start),
     .char_end_o(end_), .char_idle_before_o(idle_before), .active_o(active),

@@ -9,6 +9,7 @@ module search_and_receiver_fit (
   input  wire clk_i,
   input  wire rst_ni,
   input  wire figures_i,
+  input  wire step_i,
   input  wire level_i,
   input  wire edge_i,
   input  wire hand_over_i,
@@ -19,7 +20,7 @@ module search_and_receiver_fit (
   output wire search_fold_o
 );
   edge_rx_fit u_receiver (
-    .clk_i, .rst_ni, .figures_i, .level_i, .edge_i, .hand_over_i, .clear_i,
+    .clk_i, .rst_ni, .figures_i, .step_i, .level_i, .edge_i, .hand_over_i, .clear_i,
     .fold_o(receiver_fold_o)
   );
 

@@ -3,8 +3,13 @@
 // model passes the clocks between its events at once) and the registers that do work a clock
 // ahead (ahead_q, good_ahead_q, due_q, idle_pending_q; below).
 //
-// Each clock takes the synchronised line (level_i, and edge_i: it changed on this clock) and
-// does what the transceiver's tick does with the model, in its order: on_edge (a fall after
+// The line comes sampled, as the search's channel of the rate samples it (EdgeRx::sampled):
+// step_i marks the sample ticks, level_i is the level last sampled, and edge_i (only with
+// step_i) says it changed there. The readers step on the samples only, in sample units, so
+// their phase is as narrow as the rate's samples need (7 bits on the transceiver's schedule),
+// and stand still between them; starts, deadlines and the character's times stay ticks.
+//
+// Each clock does what the transceiver's tick does with the model, in its order: on_edge (a fall after
 // idle_before_i idle clocks opens a candidate), then act when the character under way falls
 // due (its deadline reached), which may decide a character. The character goes out on the
 // next clock, from registers (char_o and its fields): the transceiver's register between the
@@ -17,7 +22,8 @@
 // Two lanes of two slots: the lane cur_q the character under way, the other the next one, whose
 // candidates the falls from next_from on open while the current one's decision is pending; at
 // the decision they swap roles. A slot holds a candidate's start tick, its character reader
-// (char_reader_step, 13-bit phase at the rate chosen at run time, its figures as inputs) and its
+// (char_reader_step, its phase wide enough for the rate chosen at run time, its figures as
+// inputs) and its
 // start bit as the reader decided it; live_q marks the slots under way and first_q the earlier
 // one. Nothing moves between slots or lanes: a reader is started in a free slot and left there.
 //
@@ -26,12 +32,11 @@
 // character's start and end go out as 32-bit ticks, now_i's); the idle clocks are 24 bits (the
 // transceiver saturates the ones it gives; TSYN at 9.6k is 165,000 clocks); a lane's deadline
 // is valid while it has candidates (the model's Tick::MAX otherwise); a free slot's reader runs
-// on, its registers no one's until a start (the model holds them); the receiver's own timing is
-// whole clocks, so every reader's phase step (the model's inc) is 1.
+// on, its registers no one's until a start (the model holds them).
 `default_nettype none
 
 module edge_rx #(
-  parameter int PhaseWidth  = 13,
+  parameter int PhaseWidth  = 7,
   parameter int TickWidth   = 18,
   parameter int IdleWidth   = 24,
   parameter int OffsetWidth = 16
@@ -39,8 +44,10 @@ module edge_rx #(
   input  wire                   clk_i,
   input  wire                   rst_ni,
   input  wire [31:0]            now_i,
-  // The rate's CharReader figures (char_reader.v's; inc is 1), and the clocks from a start
-  // edge to the end of its start bit, the middle of its stop bit and its end.
+  // The rate's CharReader figures in samples (char_reader.v's), and the clocks from a start
+  // edge to the end of its start bit, the middle of its stop bit and its end (whole samples).
+  input  wire [PhaseWidth-1:0]  inc_i,
+  input  wire [PhaseWidth:0]    two_inc_i,
   input  wire [PhaseWidth-1:0]  modulo_i,
   input  wire [PhaseWidth-1:0]  quarter_i,
   input  wire [PhaseWidth-1:0]  three_quarters_i,
@@ -50,6 +57,7 @@ module edge_rx #(
   input  wire [OffsetWidth-1:0] start_end_i,
   input  wire [OffsetWidth-1:0] stop_middle_i,
   input  wire [OffsetWidth-1:0] stop_end_i,
+  input  wire                   step_i,
   input  wire                   level_i,
   input  wire                   edge_i,
   input  wire [IdleWidth-1:0]   idle_before_i,
@@ -234,20 +242,20 @@ module edge_rx #(
   for (genvar k = 0; k < 4; k++) begin : g_reader
     // A free slot's reader runs on: it is started before its slot is live again.
     char_reader_step #(.PhaseWidth(PW)) u_step (
-      .inc_i(PW'(1)), .modulo_i, .quarter_i, .three_quarters_i, .half_less_inc_i,
-      .two_inc_i((PW + 1)'(2)), .modulo_less_inc_i, .modulo_less_two_inc_i,
-      .step_i(1'b1),
+      .inc_i, .modulo_i, .quarter_i, .three_quarters_i, .half_less_inc_i,
+      .two_inc_i, .modulo_less_inc_i, .modulo_less_two_inc_i,
+      .step_i,
       .start_i(start_reader[k]),
       .level_i,
       .edge_i,
       .state_i(readers_q[k*RW +: RW]),
       .state_o(readers_c[k*RW +: RW])
     );
-    // From the registers, not through the step's adders: the start bit ends on this clock
-    // (its phase left is one clock's), and how it is decided (the sign of its balance with
-    // this clock's level: low, and no tie, when negative).
-    assign start_ends[k] = !start_reader[k] && in_start_bit[k]
-                         && readers_q[k*RW + RemAt +: PW] <= PW'(1);
+    // From the registers, not through the step's adders: the start bit ends on this sample
+    // (its phase left is one sample's), and how it is decided (the sign of its balance with
+    // this sample's level: low, and no tie, when negative).
+    assign start_ends[k] = step_i && !start_reader[k] && in_start_bit[k]
+                         && readers_q[k*RW + RemAt +: PW] <= inc_i;
     assign start_over[k] = !start_reader[k] && (!in_start_bit[k] || start_ends[k]);
     assign start_low_c[k] = start_ends[k]
         ? (level_i ? readers_q[k*RW + LeadAt + PW] : readers_q[k*RW + LagAt + PW])

@@ -1,10 +1,13 @@
 // edge_rx under the stimulus of crates/rtl-check (`rtl_check::blocks::edge_rx`).
 //
-// Records: 'T' u32 modulo, quarter, three_quarters, half_less_inc, modulo_less_inc,
-// modulo_less_two_inc, start_end, stop_middle, stop_end (the rate's figures, held); 'N' u32
+// Records: 'T' u32 inc, modulo, quarter, three_quarters, half_less_inc, two_inc,
+// modulo_less_inc, modulo_less_two_inc, start_end, stop_middle, stop_end (the rate's figures,
+// held), period, wait (the receiver samples the line every period clocks, the first wait
+// clocks from the next one: step_i, counted here as the top's sample counter will); 'N' u32
 // (now_i of the next clock; it counts up a clock at a time); 'L' u8 level, u32 n (n clocks,
-// the line held at level: no edge); 'K' u8 flags (bit 0 the line's level, an edge if it
-// changed; bit 1 hand_over_i; bit 2 clear_i), u32 idle_before, u32 hand_over_end (one clock).
+// the line held at level: no edge); 'K' u8 flags (bit 0 the line's level as sampled, an edge
+// if it changed, on a sample tick only; bit 1 hand_over_i; bit 2 clear_i), u32 idle_before,
+// u32 hand_over_end (one clock).
 // Outputs each clock after its edge: bit 0 active_o, bit 1 char_o (out on that clock, decided
 // on the one before), bits 2-3 stage_o, bit 4 next_active_o, bit 5 next_from_valid_o. An event
 // on each clock with a character or a change of the current lane's deadline or next_from: the
@@ -29,8 +32,13 @@ int main(int argc, char** argv) {
   auto top = std::make_unique<Vedge_rx>(ctx.get());
   uint32_t clock_n = 0;
   uint8_t line = 1;
+  uint32_t period = 1, wait = 0;
   std::vector<uint8_t> last_lanes;
   auto clock = [&](uint8_t level, bool hand_over, bool clear, uint32_t idle, uint32_t end) {
+    bool step = wait == 0;
+    wait = step ? period - 1 : wait - 1;
+    if (level != line && !step) harness::fail("an edge off the sample ticks");
+    top->step_i = step;
     top->level_i = level;
     top->edge_i = level != line;
     top->hand_over_i = hand_over;
@@ -70,6 +78,7 @@ int main(int argc, char** argv) {
   top->now_i = 0;
   top->level_i = 1;
   top->edge_i = 0;
+  top->step_i = 0;
   top->hand_over_i = 0;
   top->clear_i = 0;
   harness::reset(*top);
@@ -79,15 +88,20 @@ int main(int argc, char** argv) {
   for (int op; (op = in.op()) >= 0;) {
     switch (op) {
       case 'T':
+        top->inc_i = in.u32();
         top->modulo_i = in.u32();
         top->quarter_i = in.u32();
         top->three_quarters_i = in.u32();
         top->half_less_inc_i = in.u32();
+        top->two_inc_i = in.u32();
         top->modulo_less_inc_i = in.u32();
         top->modulo_less_two_inc_i = in.u32();
         top->start_end_i = in.u32();
         top->stop_middle_i = in.u32();
         top->stop_end_i = in.u32();
+        period = in.u32();
+        wait = in.u32();
+        if (period == 0 || wait >= period) harness::fail("a sample period of none");
         break;
       case 'N':
         top->now_i = in.u32();

@@ -408,6 +408,7 @@ impl AutoBaud {
             for r in 0..RATES {
                 self.idle_edge(r, now, level, q);
             }
+            q.held = [level; RATES];
             if changed {
                 self.update_deadline(q);
             }

@@ -45,7 +45,16 @@
 //! search hands over no edges, so the line's edges are kept nowhere (README "Gateware": three
 //! of the sweep's 1980 cases lock a telegram later for it, all hit by glitches).
 //!
-//! The receiver acts on edges and on its decision ticks only, its readers passing the clocks
+//! The transceiver's receiver samples the line ([`EdgeRx::sampled`]) on the ticks on which the
+//! search's channel of its rate samples it (`autobaud::OVERSAMPLED`: 16 to 21 samples a bit,
+//! every clock at 3, 6 and 12 Mbit/s): it sees a change at its next sample, or not at all if
+//! the line is back before it, its readers count samples, and a start is the sample that saw
+//! the fall. So a reader's phase registers are as narrow as the search channel's (7 bits
+//! instead of 13 at 9.6k, README "Gateware"), and the receiver sees the line as the search's
+//! channel does, whose idle line the transceiver's TSYN, gap and TSDR reckoning follows.
+//! [`EdgeRx::new`] samples every clock.
+//!
+//! The receiver acts on edges and on its decision ticks only, its readers passing the samples
 //! between at once ([`CharReader::advance`]): fast mode stops there.
 
 use crate::char_reader::{CharReader, CharReaderQ, CHAR_BITS, CHAR_READER_RESET};
@@ -179,28 +188,68 @@ enum Read {
 /// The receiver's fixed configuration for one rate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EdgeRx {
+    /// The rate's bit in clocks.
     pub timing: BitTiming,
+    /// The readers count in samples: a sample is `period` clocks of phase.
     reader: CharReader,
+    /// The receiver samples the line at the ticks `t` with `t % period == phase` (a period
+    /// of 1: every clock).
+    pub period: Tick,
+    pub phase: Tick,
     /// Clocks from a start edge to the end of its start bit, the middle of its stop bit, and
-    /// its end.
+    /// its end, in whole samples.
     start_end: Tick,
     stop_middle: Tick,
     stop_end: Tick,
 }
 
 impl EdgeRx {
+    /// The receiver that samples the line every clock.
     pub fn new(timing: BitTiming) -> Self {
+        Self::sampled(timing, 1, 0)
+    }
+
+    /// The receiver that takes the line at the ticks `t` with `t % period == phase`, as the
+    /// search's channel of its rate samples it (README "Gateware": a reader's phase is then as
+    /// narrow as that channel's). Edges and hand-overs come only on those ticks, and the
+    /// deadlines fall only there (whole samples from a start); a decision may act a clock
+    /// after its deadline (the next lane's, passed while the current one was decided), and
+    /// reads the samples to then.
+    pub fn sampled(timing: BitTiming, period: Tick, phase: Tick) -> Self {
+        assert!(phase < period, "a phase is one of its period's clocks");
+        let samples = BitTiming {
+            inc: timing.inc * period,
+            modulo: timing.modulo,
+        };
         EdgeRx {
             timing,
-            reader: CharReader::new(timing),
-            start_end: timing.clocks_for(1, 1),
-            stop_middle: timing.clocks_for(21, 2),
-            stop_end: timing.clocks_for(11, 1),
+            reader: CharReader::new(samples),
+            period,
+            phase,
+            start_end: period * samples.clocks_for(1, 1),
+            stop_middle: period * samples.clocks_for(21, 2),
+            stop_end: period * samples.clocks_for(11, 1),
         }
     }
 
-    /// A change of the line at `now`: it `rose`, or fell after `idle_before` idle clocks.
+    /// The readers' figures (in samples), as the gateware takes them.
+    pub fn reader(&self) -> &CharReader {
+        &self.reader
+    }
+
+    /// Clocks from a start to the end of its start bit, the middle of its stop bit and its
+    /// end: the gateware's `start_end_i`, `stop_middle_i` and `stop_end_i`.
+    pub fn offsets(&self) -> [Tick; 3] {
+        [self.start_end, self.stop_middle, self.stop_end]
+    }
+
+    /// The line changed as sampled at `now`: it `rose`, or fell after `idle_before` idle clocks.
     pub fn on_edge(&self, now: Tick, rose: bool, idle_before: Tick, q: &mut EdgeRxQ) {
+        debug_assert_eq!(
+            now % self.period,
+            self.phase,
+            "an edge off the sample ticks"
+        );
         self.read_to(now.saturating_sub(1), !rose, q);
         // Falls are judged on the readers through the clock before them: a start bit is over
         // when its reader decided it on an earlier clock.
@@ -315,9 +364,9 @@ impl EdgeRx {
     }
 
     /// The readers under way through tick `until`, the line at `level` since the last tick
-    /// they took.
+    /// they took: the samples between.
     fn read_to(&self, until: Tick, level: bool, q: &mut EdgeRxQ) {
-        let n = until.saturating_sub(q.read_until);
+        let n = self.samples_through(until) - self.samples_through(until.min(q.read_until));
         if n > 0 {
             for lane in &mut q.lanes {
                 for slot in 0..2 {
@@ -330,7 +379,12 @@ impl EdgeRx {
         q.read_until = q.read_until.max(until);
     }
 
-    /// `n` clocks of the reader in `slot` at `level`; its start bit's reading is kept as it
+    /// The receiver's sample ticks from 0 through `t`.
+    fn samples_through(&self, t: Tick) -> u64 {
+        (t + self.period - self.phase) / self.period
+    }
+
+    /// `n` samples of the reader in `slot` at `level`; its start bit's reading is kept as it
     /// is decided.
     fn advance(&self, lane: &mut Lane, slot: usize, level: bool, n: u64) {
         let r = &mut lane.readers[slot];
@@ -346,7 +400,7 @@ impl EdgeRx {
         self.reader.advance(r, level, n);
     }
 
-    /// The reader in `slot` through one clock with an edge to `level`.
+    /// The reader in `slot` through one sample with an edge to `level`.
     fn clock(&self, lane: &mut Lane, slot: usize, level: bool) {
         let r = &mut lane.readers[slot];
         let before = r.bit;
@@ -434,6 +488,11 @@ impl EdgeRx {
         debug_assert!(
             start + self.stop_middle <= now,
             "decided before its stop bit's middle"
+        );
+        debug_assert_eq!(
+            now % self.period,
+            self.phase,
+            "a hand-over off the sample ticks"
         );
         *q = EdgeRxQ {
             read_until: now,

@@ -19,8 +19,10 @@
 //! - The receiver ([`EdgeRx`]) takes each character from the line's edges, every bit by the level
 //!   the line held longer within it: a glitch shorter than half a bit cannot turn a bit, nor an
 //!   edge it moved, so glitches inside a telegram cost nothing. Where a glitch leaves two falls
-//!   within a start bit, it reads the character from both. Its characters and idle line are
-//!   the line's times: no filter holds the line back. A character goes to the delimiter a
+//!   within a start bit, it reads the character from both. It takes the line as the search's
+//!   channel of its rate samples it ([`EdgeRx::sampled`]), and so do the idle time, the gap and
+//!   TSDR: its characters and idle line are that channel's sample ticks, which follow the line
+//!   within a sample (every clock at 3, 6 and 12 Mbit/s); no filter holds the line back. A character goes to the delimiter a
 //!   clock after the receiver decides it (a register between the two, as in the gateware);
 //!   until then it is under way.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
@@ -294,7 +296,11 @@ impl Transceiver {
     /// character under way).
     fn quiet_since(&self) -> Tick {
         match self.heard() {
-            Some(b) if self.sync_q.out && !self.rx_q.active() && self.decided.is_none() => {
+            Some(b)
+                if self.search_q.held[b.index()]
+                    && !self.rx_q.active()
+                    && self.decided.is_none() =>
+            {
                 self.last_end.max(self.search_q.high_since[b.index()])
             }
             _ => self.now,
@@ -328,23 +334,26 @@ impl Transceiver {
             }
         }
         let (sf, sfq) = filter::next(line, SYNC_FILTER_LEN, &self.sync_q);
-        // Idle before a fall, worked out before it counts: a character's TSYN.
-        let idle_before = if sf.fell { self.idle() } else { 0 };
         self.sync_q = sfq;
-        if sf.fell || sf.rose {
-            if let Some(rx) = &self.rx {
-                rx.on_edge(now, sf.rose, idle_before, &mut self.rx_q);
-            }
-        }
+        // The line as each rate's channel sampled it before this clock: the receiver takes the
+        // line as the search's channel of its rate samples it.
+        let held = self.search_q.held;
         // The search's own early exit, here: the rate heard is worth working out on its events
         // only (the search runs on every clock).
-        let det = if sf.fell || sf.rose || now >= self.search_q.deadline {
+        let search_due = sf.fell || sf.rose || now >= self.search_q.deadline;
+        // Idle before a fall, worked out before it counts: a character's TSYN.
+        let idle_before = if search_due { self.idle() } else { 0 };
+        let det = if search_due {
             self.search.clock(now, sf, self.heard(), &mut self.search_q)
         } else {
             None
         };
+        let sampled_fall = |q: &AutoBaudQ, b: Baud| held[b.index()] && !q.held[b.index()];
         let switched = match det {
-            Some(Ok(d)) => self.on_detection(&d, sf.fell, &mut out),
+            Some(Ok(d)) => {
+                let fell = sampled_fall(&self.search_q, d.baud);
+                self.on_detection(&d, fell, &mut out)
+            }
             Some(Err(_)) => {
                 if self.rx.is_none() {
                     self.stats.search_rejects += 1;
@@ -354,10 +363,15 @@ impl Transceiver {
             None => false,
         };
 
-        if let (Some(rx), false) = (self.rx, switched) {
+        if let (Some(rx), Some(b), false) = (self.rx, self.heard(), switched) {
+            let level = self.search_q.held[b.index()];
+            if level != held[b.index()] {
+                let idle = if level { 0 } else { idle_before };
+                rx.on_edge(now, level, idle, &mut self.rx_q);
+            }
             if now >= self.rx_q.deadline {
                 // Delivered on the next clock.
-                self.decided = rx.act(now, sf.level, &mut self.rx_q);
+                self.decided = rx.act(now, level, &mut self.rx_q);
             }
             // A character decided and not yet delivered is under way still.
             let taking = self.rx_q.active() || self.decided.is_some();
@@ -484,7 +498,8 @@ impl Transceiver {
     fn use_rate(&mut self, baud: Baud) {
         // A divider of the sample clock: the rate's bit in whole clocks.
         let timing = BitTiming::whole_clocks(self.cfg.clock_hz, baud);
-        self.rx = Some(EdgeRx::new(timing));
+        let figures = self.search.channel_figures(baud);
+        self.rx = Some(EdgeRx::sampled(timing, figures.period, figures.phase));
         self.tx = Some(UartTx::new(timing));
         self.pending_not_before = None;
         self.rx_q = EdgeRxQ {
@@ -531,7 +546,8 @@ impl Transceiver {
             return quiet;
         }
         quiet = quiet.min(self.rx_q.deadline.saturating_sub(now));
-        let line_idle = self.sync_q.out && !self.rx_q.active();
+        let line_idle =
+            self.heard().is_some_and(|b| self.search_q.held[b.index()]) && !self.rx_q.active();
         if self.delimiter.inside() && line_idle {
             let gap_at = self.quiet_since() + self.delimiter.gap_clocks + 1;
             quiet = quiet.min(gap_at.saturating_sub(now));

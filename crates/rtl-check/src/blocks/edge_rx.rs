@@ -1,16 +1,19 @@
 //! The receiver (`gateware/rtl/edge_rx.v`) against `dp_phy::edge_rx::EdgeRx`, driven as the
-//! transceiver drives it: per clock, an edge (`on_edge`), then the search's hand-over or, at the
-//! deadline, `act`; a clear after it now and then (a rate dropped or changed). Lines at every
-//! rate: characters from a master up to 5,000 ppm off, back to back or apart, glitches of up
-//! to half a bit, runs of random length, and the search's hand-overs (at a rate that may change
-//! with them); ticks from near the 32-bit wrap in some cases.
+//! transceiver drives it: built for its rate with the search's sampling of it
+//! (`EdgeRx::sampled`), and per clock an edge of the sampled line (`on_edge`), then the
+//! search's hand-over or, at the deadline, `act`; a clear after it now and then (a rate dropped
+//! or changed). Lines at every rate: characters from a master up to 5,000 ppm off, back to
+//! back or apart, glitches of up to half a bit, runs of random length, and the search's
+//! hand-overs (at a rate that may change with them); ticks from near the 32-bit wrap in some
+//! cases. Every change of the line is put on the receiver's next sample tick: the line as it
+//! samples it (a glitch shorter than a sample lasts one).
 
 use crate::{Block, Case, Event, Trace};
 use dp_consts::Baud;
 use dp_phy::edge_rx::{EdgeRx, EdgeRxQ, EDGE_RX_RESET};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::uart::char_bits;
-use dp_phy::{BitTiming, Tick};
+use dp_phy::{BitTiming, Config, Tick};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -32,10 +35,32 @@ pub fn edge_rx() -> Block {
             "next_active",
             "next_from_valid",
         ],
-        params: vec![("PhaseWidth", i64::from(super::run_time_width()))],
+        params: vec![("PhaseWidth", i64::from(receiver_width()))],
         twin: "dp_phy::edge_rx::EdgeRx",
         events: true,
     }
+}
+
+/// The transceiver's receiver at `baud`: sampling the line as the search's channel of the
+/// rate does.
+fn receiver(baud: Baud) -> EdgeRx {
+    let schedule = Config::default().search_schedule;
+    let r = baud.index();
+    EdgeRx::sampled(
+        BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud),
+        schedule.period[r],
+        schedule.phase[r],
+    )
+}
+
+/// Bits that hold every rate's reduced modulo in the receiver's samples (7: 9.6k's bit is
+/// 125/6 samples).
+pub fn receiver_width() -> u32 {
+    Baud::ALL
+        .iter()
+        .map(|&b| u64::BITS - receiver(b).reader().modulo.leading_zeros())
+        .max()
+        .expect("rates")
 }
 
 /// The stimulus and the model, written together.
@@ -89,7 +114,7 @@ impl std::ops::AddAssign for Seen {
 impl RxCase {
     fn new(baud: Baud, now: Tick) -> RxCase {
         let mut case = RxCase {
-            rx: EdgeRx::new(BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud)),
+            rx: receiver(baud),
             q: EDGE_RX_RESET,
             now,
             line: true,
@@ -107,24 +132,33 @@ impl RxCase {
         case
     }
 
-    /// The rate's figures from the next clock on (the model's receiver for it).
+    /// The rate's figures from the next clock on (the model's receiver for it), and its
+    /// sample ticks: the clocks to the next one. Another rate is taken on one of its own
+    /// sample ticks, for the hand-over that follows (the search decides there): the line is
+    /// held at the old one's until then.
     fn use_rate(&mut self, baud: Baud) {
-        let timing = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, baud);
-        self.rx = EdgeRx::new(timing);
-        let r = dp_phy::char_reader::CharReader::new(timing);
-        // The adapter's own timing is whole clocks: a reader's phase step is 1, built in.
-        assert_eq!(r.inc, 1, "{baud}: the receiver's bit is not whole clocks");
+        let next = receiver(baud);
+        if next != self.rx {
+            self.hold((next.phase + next.period - self.now % next.period) % next.period);
+            self.rx = next;
+        }
+        let r = *self.rx.reader();
+        let [start_end, stop_middle, stop_end] = self.rx.offsets();
         self.stimulus.push(b'T');
         for figure in [
+            r.inc,
             r.modulo,
             r.quarter,
             r.three_quarters,
             r.half_less_inc,
+            r.two_inc,
             r.modulo_less_inc,
             r.modulo_less_two_inc,
-            timing.clocks_for(1, 1),
-            timing.clocks_for(21, 2),
-            timing.clocks_for(11, 1),
+            start_end,
+            stop_middle,
+            stop_end,
+            self.rx.period,
+            self.to_sample(),
         ] {
             self.stimulus
                 .extend_from_slice(&(figure as u32).to_le_bytes());
@@ -224,9 +258,20 @@ impl RxCase {
         }
     }
 
+    /// Clocks from the next one to the receiver's next sample tick.
+    fn to_sample(&self) -> Tick {
+        let (period, phase) = (self.rx.period, self.rx.phase);
+        (phase + period - self.now % period) % period
+    }
+
     /// One clock with the line at `level`, a fall's idle clocks before it, the search's
-    /// hand-over of a character ending at `hand_over`, a clear.
+    /// hand-over of a character ending at `hand_over`, a clear. A change of the line and a
+    /// hand-over wait for the receiver's next sample tick (as the search's channel of the
+    /// rate would see the change, and decide).
     fn special(&mut self, level: bool, idle: Tick, hand_over: Option<Tick>, clear: bool) {
+        if level != self.line || hand_over.is_some() {
+            self.hold(self.to_sample());
+        }
         self.stimulus.push(b'K');
         self.stimulus
             .push(u8::from(level) | u8::from(hand_over.is_some()) << 1 | u8::from(clear) << 2);
@@ -314,7 +359,8 @@ fn random_line(case: &mut RxCase, rng: &mut ChaCha8Rng, baud: Baud, bits: u64) {
                         at = 1;
                     }
                     for e in edges.into_iter().filter(|&e| e >= at) {
-                        case.hold(e - (case.now - start));
+                        // An edge put on a later sample tick may pass the next one's clock.
+                        case.hold(e.saturating_sub(case.now - start));
                         level = !level;
                         case.edge(level, rng);
                     }

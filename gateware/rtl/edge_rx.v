@@ -440,9 +440,13 @@ module edge_rx #(
     end_last     = start_of(c_starts, c_last) + TW'(stop_end_i);
     end_for_idle = chosen[11] ? first_start : chose_last ? end_last : end_first;
     // Each slot's start and end as 32-bit ticks: now_i's upper bits, less one if the start's
-    // low bits are past now's (it came before they wrapped); the read only chooses.
+    // low bits are past now's (it came before they wrapped); the read only chooses. A start
+    // read here is less than half the TickWidth range before now (a character: 12 bits at
+    // 9.6k, 60,000 clocks), so its low bits are past now's exactly when its top bit is set
+    // and now's is not: one LUT where a comparison was a carry chain before the adder.
     for (int s = 0; s < 2; s++) begin
-      start32[s*32 +: 32] = {c_starts[s*TW +: TW] > now ? upper_less_one : now_i[31:TW],
+      start32[s*32 +: 32] = {c_starts[s*TW + TW - 1] && !now[TW-1] ? upper_less_one
+                                                                    : now_i[31:TW],
                              c_starts[s*TW +: TW]};
       end32[s*32 +: 32]   = start32[s*32 +: 32] + 32'(stop_end_i);
     end

@@ -72,6 +72,10 @@ pub struct Detection {
     pub start: Tick,
     /// Tick the stop bit ends.
     pub end: Tick,
+    /// The detecting channel's pending edge at the decision (`Tick::MAX`: none): the last
+    /// edge of its idle line that a next one within the rate's glitch length would cancel.
+    /// The receiver's idle line at the rate goes on from it (`Transceiver`'s `RateIdle`).
+    pub pending: Tick,
 }
 
 /// Why a measured character was not taken (for statistics and tests).
@@ -377,7 +381,10 @@ impl AutoBaud {
             if heard.is_some_and(|b| b.index() == r) {
                 continue;
             }
-            let decided = self.decide(r, c, now, level);
+            let decided = self.decide(r, c, now, level).map(|d| Detection {
+                pending: q.pending[r],
+                ..d
+            });
             if heard.is_some() && decided.is_err() {
                 continue;
             }
@@ -588,6 +595,7 @@ impl AutoBaud {
             byte,
             start,
             end: start + w.stop_end,
+            pending: Tick::MAX,
         })
     }
 

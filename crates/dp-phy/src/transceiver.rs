@@ -129,6 +129,47 @@ pub struct Probe {
     pub fallback: Option<Baud>,
 }
 
+/// The line at the receiver's rate as the idle time, the gap and TSDR count it: high since
+/// when, that rate's glitches aside (a pulse of at most the rate's glitch length never was).
+/// The search's channel of the rate follows the same line (`AutoBaudQ`'s `pending`,
+/// `high_since`, `high_before`); the transceiver keeps its own copy for the rate it is on, so
+/// the gateware's top needs nothing of the search's channels but a detection (whose channel
+/// the copy goes on from: [`Detection::pending`]). It only ever counts through
+/// `max(last_end, high_since)`, and every rate is taken on at a character's end or later, so a
+/// copy starts with that end as its high ticks: the same sums as the channel's own, which the
+/// debug builds check at every clock.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct RateIdle {
+    /// The last edge that a next one within the glitch length cancels (`Tick::MAX`: none).
+    pending: Tick,
+    high_since: Tick,
+    /// What a cancelled rise goes back to.
+    high_before: Tick,
+}
+
+impl RateIdle {
+    /// Going on from the search's channel at `detection`.
+    fn from_detection(detection: &Detection) -> RateIdle {
+        RateIdle {
+            pending: detection.pending,
+            high_since: detection.end,
+            high_before: detection.end,
+        }
+    }
+
+    /// The line at the rate changed at `now` (it `rose`, or fell): `AutoBaud`'s idle edge.
+    fn edge(&mut self, now: Tick, rose: bool, glitch: Tick) {
+        let cancels = self.pending != Tick::MAX && now - self.pending <= glitch;
+        let (since, before) = (self.high_since, self.high_before);
+        (self.high_since, self.high_before) = match (rose, cancels) {
+            (true, false) => (now, since),
+            (false, true) => (before, before),
+            _ => (since, before),
+        };
+        self.pending = if cancels { Tick::MAX } else { now };
+    }
+}
+
 /// The transceiver block.
 #[derive(Clone, Debug)]
 pub struct Transceiver {
@@ -151,6 +192,10 @@ pub struct Transceiver {
     fallback: Option<Baud>,
     /// The last character taken ends on this tick (its stop bit's end).
     last_end: Tick,
+    /// The idle line at the receiver's rate, and during a trial from a lock at the locked
+    /// rate (what the lock goes on with if the trial fails).
+    rx_idle: RateIdle,
+    fallback_idle: RateIdle,
     /// The character the receiver decided on the last clock, with the idle clocks before it:
     /// delivered on this one, first thing. A register between the receiver's decision and the
     /// delimiter, as the gateware has it (README "Gateware": the decision's logic and the
@@ -168,6 +213,13 @@ pub struct Transceiver {
     response: Vec<u8>,
     stats: Stats,
 }
+
+/// No rate: its idle line is never read.
+const RATE_IDLE_NONE: RateIdle = RateIdle {
+    pending: Tick::MAX,
+    high_since: 0,
+    high_before: 0,
+};
 
 /// The line is taken into the clock domain with no glitch filter: every glitch is weighed, bit by
 /// bit, where it falls. A filter would move an edge that a glitch follows within its length: by
@@ -190,6 +242,8 @@ impl Transceiver {
             trial_since: 0,
             fallback: None,
             last_end: 0,
+            rx_idle: RATE_IDLE_NONE,
+            fallback_idle: RATE_IDLE_NONE,
             decided: None,
             drove_until: 0,
             watchdog: Watchdog::STOPPED,
@@ -301,7 +355,14 @@ impl Transceiver {
                     && !self.rx_q.active()
                     && self.decided.is_none() =>
             {
-                self.last_end.max(self.search_q.high_since[b.index()])
+                let since = self.last_end.max(self.rx_idle.high_since);
+                debug_assert_eq!(
+                    since,
+                    self.last_end.max(self.search_q.high_since[b.index()]),
+                    "the receiver's idle line is not its rate's channel's at {}",
+                    self.now
+                );
+                since
             }
             _ => self.now,
         }
@@ -349,6 +410,23 @@ impl Transceiver {
             None
         };
         let sampled_fall = |q: &AutoBaudQ, b: Baud| held[b.index()] && !q.held[b.index()];
+        // The idle lines kept take this clock's changes at their rates (before a detection
+        // hands the receiver's over to the fallback and starts a new one).
+        let changed = |q: &AutoBaudQ, b: Baud| held[b.index()] != q.held[b.index()];
+        if let Some(b) = self.heard() {
+            if changed(&self.search_q, b) {
+                let level = self.search_q.held[b.index()];
+                self.rx_idle
+                    .edge(now, level, self.search.channel_figures(b).glitch);
+            }
+        }
+        if let (BaudState::Trial(_), Some(f)) = (self.state, self.fallback) {
+            if changed(&self.search_q, f) {
+                let level = self.search_q.held[f.index()];
+                self.fallback_idle
+                    .edge(now, level, self.search.channel_figures(f).glitch);
+            }
+        }
         let switched = match det {
             Some(Ok(d)) => {
                 let fell = sampled_fall(&self.search_q, d.baud);
@@ -413,11 +491,15 @@ impl Transceiver {
             BaudState::Trial(b) | BaudState::Locked(b) if b == d.baud => return false,
             BaudState::Trial(_) if d.start <= self.trial_since => return false,
             BaudState::Searching => self.fallback = None,
-            BaudState::Locked(b) => self.fallback = Some(b),
+            BaudState::Locked(b) => {
+                self.fallback = Some(b);
+                self.fallback_idle = self.rx_idle;
+            }
             // A trial from a lock keeps that lock as its fallback.
             BaudState::Trial(_) => {}
         }
         self.start_trial(d.baud, out);
+        self.rx_idle = RateIdle::from_detection(d);
         self.last_end = d.end;
         if let Some(rx) = self.rx {
             rx.hand_over(d.start, d.end, self.now, fell, &mut self.rx_q);
@@ -468,6 +550,7 @@ impl Transceiver {
                             Some(locked) => {
                                 self.stats.relock_trials_failed += 1;
                                 self.use_rate(locked);
+                                self.rx_idle = self.fallback_idle;
                                 self.state = BaudState::Locked(locked);
                                 out.baud_changed = true;
                             }

@@ -29,17 +29,19 @@ module search_and_receiver_fit (
   logic [7:0]  byte_;
   logic [1:0]  reject_code;
   logic [15:0] start_age;
-  logic [9:0]  measuring;
+  logic [9:0]  measuring, samples;
+  logic [11:0] pending_left;
   autobaud #(.Oversampled(1)) u_search (
     .clk_i, .rst_ni, .level_i, .heard_valid_i, .heard_i, .valid_o(valid), .detect_o(detect),
     .rate_o(rate), .byte_o(byte_), .reject_code_o(reject_code), .start_age_o(start_age),
-    .measuring_o(measuring)
+    .pending_left_o(pending_left), .samples_o(samples), .measuring_o(measuring)
   );
 
-  logic [41:0] out_q;
+  logic [63:0] out_q;
   logic        fold_q;
   always_ff @(posedge clk_i) begin
-    out_q  <= {valid, detect, rate, byte_, reject_code, start_age, measuring};
+    out_q  <= {valid, detect, rate, byte_, reject_code, start_age, pending_left, samples,
+               measuring};
     fold_q <= ^out_q;
   end
   assign search_fold_o = fold_q;

@@ -21,7 +21,10 @@ module autobaud #(
   // (a 9.6k character and its start bit at every clock). Each channel's own registers have
   // its rate's widths (autobaud_channels.svh).
   parameter int TimeWidth = 16,
-  parameter int AltWidth  = 13
+  parameter int AltWidth  = 13,
+  // The detecting channel's samples within which a next edge cancels its idle line's last
+  // one (9.6k's glitch at every clock: 2,499).
+  parameter int PendWidth = 12
 ) (
   input  wire                 clk_i,
   input  wire                 rst_ni,
@@ -34,6 +37,11 @@ module autobaud #(
   output logic [7:0]          byte_o,
   output logic [1:0]          reject_code_o,
   output logic [TimeWidth-1:0] start_age_o,
+  // With a detection: its channel's idle line's pending edge, as the samples within which a
+  // next edge still cancels it (0: none); the transceiver's copy of that line goes on from it.
+  output logic [PendWidth-1:0] pending_left_o,
+  // Each channel samples the line on this clock (the receiver takes the line at its rate's).
+  output wire  [9:0]          samples_o,
   output wire  [9:0]          measuring_o
 );
   localparam int Rates = 10;
@@ -45,6 +53,7 @@ module autobaud #(
   logic [Rates*8-1:0]         bytes;
   logic [Rates*TimeWidth-1:0] since_t0;
   logic [Rates*AltWidth-1:0]  offset;
+  logic [Rates*PendWidth-1:0] cancel_left;
 
   always_comb begin
     for (int r = 0; r < Rates; r++) heard[r] = heard_valid_i && heard_i == 4'(r);
@@ -55,6 +64,7 @@ module autobaud #(
     byte_o        = '0;
     reject_code_o = '0;
     start_age_o   = '0;
+    pending_left_o = '0;
     for (int r = 0; r < Rates; r++) begin
       if (reject[r]) begin
         valid_o       = 1'b1;
@@ -71,6 +81,7 @@ module autobaud #(
         rate_o        = 4'(r);
         byte_o        = bytes[r*8 +: 8];
         reject_code_o = '0;
+        pending_left_o = cancel_left[r*PendWidth +: PendWidth];
         // One subtraction, for the channel that goes out.
         start_age_o   = since_t0[r*TimeWidth +: TimeWidth]
                       - TimeWidth'(offset[r*AltWidth +: AltWidth]);

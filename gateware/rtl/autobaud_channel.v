@@ -47,7 +47,8 @@ module autobaud_channel #(
   parameter int AltWidth         = 13,
   // The search's: the start age and offset it puts out.
   parameter int StartAgeWidth    = 16,
-  parameter int AltOutWidth      = 13
+  parameter int AltOutWidth      = 13,
+  parameter int PendOutWidth     = 12
 ) (
   input  wire                 clk_i,
   input  wire                 rst_ni,
@@ -63,6 +64,10 @@ module autobaud_channel #(
   // Clocks since the detected character's start edge.
   output wire [StartAgeWidth-1:0] since_t0_o,
   output wire [AltOutWidth-1:0]   offset_o,
+  // With a detection: the samples within which a next edge cancels the idle line's last one.
+  output wire [PendOutWidth-1:0]  cancel_left_o,
+  // The channel samples the line on this clock.
+  output wire                 sample_o,
   output wire                 measuring_o
 );
   localparam int ReaderWidth = 4 * PhaseWidth + 21;
@@ -84,6 +89,9 @@ module autobaud_channel #(
 
   // The channel's samples: every Period clocks, from tick Phase. Between them it holds.
   assign sample  = phase_q == '0;
+  assign sample_o = sample;
+  logic [PendWidth-1:0] cancel_left;
+  assign cancel_left_o = PendOutWidth'(cancel_left);
   assign phase_d = Period > 1 ? (sample ? PhaseBits'(Period - 1) : phase_q - 1'b1) : '0;
 
   // The step's other view of the measuring flag is for the other caller.
@@ -118,6 +126,7 @@ module autobaud_channel #(
     .byte_o,
     .since_t0_o,
     .offset_o,
+    .cancel_left_o        (cancel_left),
     .measuring_o,
     .measuring_next_o     ()
   );

@@ -60,6 +60,10 @@ module autobaud_channel_step #(
   // Samples since the detected character's start edge, and the second start's offset.
   output wire [StartAgeWidth-1:0] since_t0_o,
   output wire [AltOutWidth-1:0]   offset_o,
+  // The samples within which a next edge cancels the idle line's last one, as this clock
+  // leaves them (0: none can): the detecting channel's goes to the transceiver's own copy of
+  // the rate's idle line (Detection::pending).
+  output wire [PendWidth-1:0]  cancel_left_o,
   // A measurement under way, in state_i and in state_o: the packed layout stays known here.
   output wire                  measuring_o,
   output wire                  measuring_next_o
@@ -243,6 +247,7 @@ module autobaud_channel_step #(
   assign byte_o        = data;
   assign since_t0_o    = StartAgeWidth'(since_t0_q);
   assign offset_o      = AltOutWidth'(offset);
+  assign cancel_left_o = cancel_left_d;
   assign measuring_o   = measuring_q;
   assign measuring_next_o = measuring_d;
 

@@ -27,7 +27,8 @@ module autobaud_shared #(
   parameter int AltWidth      = 5,
   parameter int FrameWidth    = 6,
   parameter int StartAgeWidth = 16,
-  parameter int AltOutWidth   = 13
+  parameter int AltOutWidth   = 13,
+  parameter int PendOutWidth  = 12
 ) (
   input  wire                     clk_i,
   input  wire                     rst_ni,
@@ -40,6 +41,10 @@ module autobaud_shared #(
   output wire [7:0]               byte_o,
   output wire [StartAgeWidth-1:0] since_t0_o,
   output wire [AltOutWidth-1:0]   offset_o,
+  // The deciding channel's samples within which a next edge cancels its idle line's last one.
+  output wire [PendOutWidth-1:0]  cancel_left_o,
+  // Each channel samples the line on this clock (only the one in turn can).
+  output wire [Slots-1:0]         samples_o,
   output wire [Slots-1:0]         measuring_o
 );
   localparam int SlotWidth   = $clog2(Slots);
@@ -88,6 +93,8 @@ module autobaud_shared #(
   logic [FrameWidth-1:0] frames_left, frames_next;
   logic                  sample, heard;
   logic                  detect, reject, measuring_next;
+  logic [PendWidth-1:0]  cancel_left;
+  assign cancel_left_o = PendOutWidth'(cancel_left);
 
   assign reset_state = {1'b1, edge_reset, PendWidth'(0), tsyn, tsyn, 1'b0, TimeWidth'(0),
                         TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset, ReaderReset};
@@ -136,6 +143,7 @@ module autobaud_shared #(
     .byte_o,
     .since_t0_o,
     .offset_o,
+    .cancel_left_o        (cancel_left),
     .measuring_o          (),
     .measuring_next_o     (measuring_next)
   );
@@ -144,6 +152,7 @@ module autobaud_shared #(
   for (genvar s = 0; s < Slots; s++) begin : g_decisions
     assign detect_o[s] = detect && slot_q == SlotWidth'(s);
     assign reject_o[s] = reject && slot_q == SlotWidth'(s);
+    assign samples_o[s] = sample && slot_q == SlotWidth'(s);
   end
   assign measuring_o = measuring_q;
 

@@ -2,11 +2,13 @@
 //
 // Records: 'L' u8 level, u8 heard (an index into Baud::ALL, 0xFF none), u32 n: n clocks with
 // the synchronised line at level and that rate heard. Outputs each clock, read before its edge (the search's decision is that clock's):
-// bit 0 valid_o, bit 1 detect_o, bit 2 any channel measuring after the edge. An event on
-// each clock with a decision or a change of the channels measuring: measuring_o (u16), then
-// the decision: kind (0 none, 1 detection, 2 rejection), rate, byte (a rejection: its code),
-// start_age_o (u32, in the detecting channel's samples; 0 for a rejection, which names no rate
-// or start in the model).
+// bit 0 valid_o, bit 1 detect_o, bit 2 any channel measuring after the edge, bit 3 the heard
+// rate's channel samples on this clock (samples_o). An event on each clock with a decision or
+// a change of the channels measuring: measuring_o (u16), then the decision: kind (0 none, 1
+// detection, 2 rejection), rate, byte (a rejection: its code), start_age_o (u32, in the
+// detecting channel's samples; 0 for a rejection, which names no rate or start in the model),
+// pending_left_o (u32, the samples within which a next edge cancels the detecting channel's
+// idle line's last one; 0 for a rejection).
 #include <memory>
 
 #include "Vautobaud.h"
@@ -36,13 +38,16 @@ int main(int argc, char** argv) {
       if (top->detect_o) {
         decision = {1, top->rate_o, top->byte_o};
         put(decision, top->start_age_o, 4);
+        put(decision, top->pending_left_o, 4);
       } else {
         decision = {2, 0, top->reject_code_o};
         put(decision, 0, 4);
+        put(decision, 0, 4);
       }
     } else {
-      decision = {0, 0, 0, 0, 0, 0, 0};
+      decision = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
     }
+    if (heard != 0xFF && (top->samples_o >> heard & 1)) value |= 0b1000;
     top->clk_i = 1;
     top->eval();
     top->clk_i = 0;

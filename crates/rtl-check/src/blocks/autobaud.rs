@@ -19,7 +19,7 @@ use dp_phy::bus::FaultInjector;
 use dp_phy::filter::{self, FilterOut, FilterQ, FILTER_RESET};
 use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Testbench};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
-use dp_phy::{BitTiming, Config};
+use dp_phy::{BitTiming, Config, Tick};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::fmt::Write as _;
@@ -37,7 +37,7 @@ pub fn autobaud(oversampled: bool) -> Block {
             "autobaud_channel_step.v",
             "char_reader_step.v",
         ],
-        signals: &["valid", "detect", "measuring"],
+        signals: &["valid", "detect", "measuring", "heard_sample"],
         params: vec![("Oversampled", i64::from(oversampled))],
         twin: "dp_phy::autobaud::AutoBaud",
         events: true,
@@ -140,13 +140,15 @@ pub fn channels_svh() -> String {
                  .Glitch({}), .Tsyn({}), .StopMiddle({}), .StopEnd({}),\n      \
                  .StartBitClocks({}), .Period({}), .Phase({}),\n      \
                  .IdleWidth({idle_w}), .PendWidth({pend_w}), .TimeWidth({time_w}), .AltWidth({alt_w}),\n      \
-                 .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)\n    \
+                 .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)\n    \
                  ) u_channel_{r} (\n      \
                  .clk_i, .rst_ni, .level_i,\n      \
                  .heard_i(heard[{r}]), .heard_any_i(heard_valid_i), .detect_o(detect[{r}]),\n      \
                  .reject_o(reject[{r}]), .reject_code_o(reject_code[{r} * 2 +: 2]),\n      \
                  .byte_o(bytes[{r} * 8 +: 8]), .since_t0_o(since_t0[{r} * TimeWidth +: TimeWidth]),\n      \
-                 .offset_o(offset[{r} * AltWidth +: AltWidth]), .measuring_o(measuring_o[{r}])\n    );\n",
+                 .offset_o(offset[{r} * AltWidth +: AltWidth]),\n      \
+                 .cancel_left_o(cancel_left[{r} * PendWidth +: PendWidth]), .sample_o(samples_o[{r}]),\n      \
+                 .measuring_o(measuring_o[{r}])\n    );\n",
                 f.period,
                 f.phase,
                 c.inc,
@@ -198,20 +200,23 @@ fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> 
         "\n    // 9.6k to 500k, taking turns: slot s is the rate of index s (autobaud_slots.svh)\n    \
          logic [1:0] shared_code;\n    logic [7:0] shared_byte;\n    \
          logic [TimeWidth-1:0] shared_since;\n    logic [AltWidth-1:0] shared_offset;\n    \
+         logic [PendWidth-1:0] shared_cancel;\n    \
          autobaud_shared #(\n      \
          .Slots({slots}), .PhaseWidth({phase_w}), .IdleWidth({idle_w}), .PendWidth({pend_w}),\n      \
          .TimeWidth({time_w}), .AltWidth({alt_w}), .FrameWidth({}),\n      \
-         .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth)\n    \
+         .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)\n    \
          ) u_shared (\n      \
          .clk_i, .rst_ni, .level_i,\n      \
          .heard_i(heard[{last}:0]), .heard_any_i(heard_valid_i), .detect_o(detect[{last}:0]),\n      \
          .reject_o(reject[{last}:0]), .reject_code_o(shared_code), .byte_o(shared_byte),\n      \
-         .since_t0_o(shared_since), .offset_o(shared_offset), .measuring_o(measuring_o[{last}:0])\n    );\n    \
+         .since_t0_o(shared_since), .offset_o(shared_offset), .cancel_left_o(shared_cancel),\n      \
+         .samples_o(samples_o[{last}:0]), .measuring_o(measuring_o[{last}:0])\n    );\n    \
          for (genvar r = 0; r < {slots}; r++) begin : g_shared\n      \
          assign reject_code[r * 2 +: 2] = shared_code;\n      \
          assign bytes[r * 8 +: 8] = shared_byte;\n      \
          assign since_t0[r * TimeWidth +: TimeWidth] = shared_since;\n      \
-         assign offset[r * AltWidth +: AltWidth] = shared_offset;\n    \
+         assign offset[r * AltWidth +: AltWidth] = shared_offset;\n      \
+         assign cancel_left[r * PendWidth +: PendWidth] = shared_cancel;\n    \
          end\n",
         bits_for(frames - 1).max(1),
     );
@@ -336,21 +341,36 @@ impl SearchCase {
             .enumerate()
             .fold(0u16, |m, (r, c)| m | u16::from(c.measuring) << r);
         let mut value = u8::from(mask != 0) << 2;
+        // The heard rate's channel samples the line on this clock: the receiver's sample.
+        if let Some(b) = heard {
+            let r = b.index();
+            value |= u8::from(self.now % self.schedule.period[r] == self.schedule.phase[r]) << 3;
+        }
         let mut payload = mask.to_le_bytes().to_vec();
         match out {
             Some(Ok(d)) => {
                 value |= 0b11;
                 payload.extend([1, d.baud.index() as u8, d.byte]);
                 // In the detecting channel's samples, as the RTL counts.
-                let age = (self.now - d.start) / self.schedule.period[d.baud.index()];
+                let period = self.schedule.period[d.baud.index()];
+                let age = (self.now - d.start) / period;
                 payload.extend((age as u32).to_le_bytes());
+                // The pending edge as the samples a next one still cancels it within: the
+                // rate's glitch less the samples since it.
+                let left = if d.pending == Tick::MAX {
+                    0
+                } else {
+                    let glitch = self.search.channel_figures(d.baud).glitch / period;
+                    glitch.saturating_sub((self.now - d.pending) / period)
+                };
+                payload.extend((left as u32).to_le_bytes());
             }
             Some(Err(e)) => {
                 value |= 0b01;
                 payload.extend([2, 0, reject_code(e)]);
-                payload.extend(0u32.to_le_bytes());
+                payload.extend([0; 8]);
             }
-            None => payload.extend([0, 0, 0, 0, 0, 0, 0]),
+            None => payload.extend([0; 11]),
         }
         if out.is_some() || mask != self.mask {
             self.events.push(Event {
@@ -481,6 +501,34 @@ fn random_case(oversampled: bool, baud: Baud, seed: u64, clocks: u64) -> Case {
     case.finish(format!("autobaud-{build}random-{baud}-{seed}"))
 }
 
+/// A start delimiter whose decision waits for its stop bit's end (a low glitch of `glitch`
+/// clocks at the stop bit's middle, `shift` clocks off it) and meets the next character's
+/// start, from a master `ppm` fast, within a glitch's length before it: the detecting channel's
+/// idle line then has an edge a next one would still cancel (`Detection::pending`).
+fn stop_glitch_case(oversampled: bool, baud: Baud, ppm: i32, glitch: u64, shift: i64) -> Case {
+    let master = BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm);
+    let mut case = SearchCase::new(oversampled);
+    let t0 = master.clocks_for(40, 1);
+    let bits: Vec<bool> = [dp_consts::SD2, 0x05, 0x05, dp_consts::SD2]
+        .iter()
+        .flat_map(|&b| dp_phy::uart::char_bits(b))
+        .collect();
+    let middle = (t0 + master.clocks_for(21, 2)) as i64 + shift;
+    let end = t0 + master.clocks_for(bits.len() as u64 + 40, 1);
+    for now in 0..end {
+        let clean = now < t0 || {
+            let bit = ((now - t0) * master.inc / master.modulo) as usize;
+            bits.get(bit).copied().unwrap_or(true)
+        };
+        let in_glitch = (middle..middle + glitch as i64).contains(&(now as i64));
+        case.clock(clean && !in_glitch, None);
+    }
+    let build = if oversampled { "oversampled-" } else { "" };
+    case.finish(format!(
+        "autobaud-{build}{baud}-stop-glitch-{ppm}ppm-{glitch}-at{shift}"
+    ))
+}
+
 pub fn autobaud_cases(quick: bool, oversampled: bool) -> Vec<Case> {
     let offsets: &[i32] = if quick { &[0] } else { &[-5000, 0, 5000] };
     let noises: &[u32] = if quick { &[0, 1] } else { &[0, 1, 3] };
@@ -507,6 +555,15 @@ pub fn autobaud_cases(quick: bool, oversampled: bool) -> Vec<Case> {
     };
     for (i, &baud) in random.iter().enumerate() {
         cases.push(random_case(oversampled, baud, 1000 + i as u64, 2_000_000));
+    }
+    let shifts: &[i64] = if quick { &[0] } else { &[-2, 0, 3] };
+    for &baud in &Baud::ALL {
+        let bit = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0).clocks_per_bit();
+        for &shift in shifts {
+            for ppm in [3000, 5000] {
+                cases.push(stop_glitch_case(oversampled, baud, ppm, bit / 8 + 1, shift));
+            }
+        }
     }
     cases
 }
@@ -535,6 +592,27 @@ mod tests {
                 "gateware/rtl/{file} is not the model's: \
                  RTL_CHECK_WRITE_SVH=1 cargo test -p rtl-check writes it"
             );
+        }
+    }
+}
+
+#[cfg(test)]
+mod coverage {
+    use super::*;
+
+    /// The quick set has detections whose channel's idle line has an edge a next one would
+    /// still cancel (the transceiver's copy of the line goes on from it), in the transceiver's
+    /// build and the every-clock one.
+    #[test]
+    fn the_quick_cases_detect_with_a_pending_edge() {
+        for oversampled in [true, false] {
+            let pending = autobaud_cases(true, oversampled)
+                .iter()
+                .flat_map(|c| &c.model_events)
+                // Payload: mask (2), kind, rate, byte, start age (4), pending left (4).
+                .filter(|e| e.payload[2] == 1 && e.payload[9..13] != [0; 4])
+                .count();
+            assert!(pending >= 10, "oversampled {oversampled}: {pending}");
         }
     }
 }

@@ -31,6 +31,7 @@ pub mod char_reader;
 pub mod delimiter;
 pub mod edge_rx;
 pub mod filter;
+pub mod rate_idle;
 pub mod responder;
 pub mod station;
 pub mod testbench;

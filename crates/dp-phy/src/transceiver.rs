@@ -38,6 +38,7 @@ use crate::autobaud::{AutoBaud, AutoBaudQ, Detection, AUTOBAUD_RESET};
 use crate::delimiter::{Delimiter, Delivery, RxTelegram};
 use crate::edge_rx::{EdgeRx, EdgeRxQ, EDGE_RX_RESET};
 use crate::filter::{self, FilterQ, FILTER_RESET};
+use crate::rate_idle::{RateIdle, RATE_IDLE_NONE};
 use crate::uart::{RxChar, UartTx};
 use crate::watchdog::Watchdog;
 use crate::{BitTiming, Tick};
@@ -129,47 +130,6 @@ pub struct Probe {
     pub fallback: Option<Baud>,
 }
 
-/// The line at the receiver's rate as the idle time, the gap and TSDR count it: high since
-/// when, that rate's glitches aside (a pulse of at most the rate's glitch length never was).
-/// The search's channel of the rate follows the same line (`AutoBaudQ`'s `pending`,
-/// `high_since`, `high_before`); the transceiver keeps its own copy for the rate it is on, so
-/// the gateware's top needs nothing of the search's channels but a detection (whose channel
-/// the copy goes on from: [`Detection::pending`]). It only ever counts through
-/// `max(last_end, high_since)`, and every rate is taken on at a character's end or later, so a
-/// copy starts with that end as its high ticks: the same sums as the channel's own, which the
-/// debug builds check at every clock.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct RateIdle {
-    /// The last edge that a next one within the glitch length cancels (`Tick::MAX`: none).
-    pending: Tick,
-    high_since: Tick,
-    /// What a cancelled rise goes back to.
-    high_before: Tick,
-}
-
-impl RateIdle {
-    /// Going on from the search's channel at `detection`.
-    fn from_detection(detection: &Detection) -> RateIdle {
-        RateIdle {
-            pending: detection.pending,
-            high_since: detection.end,
-            high_before: detection.end,
-        }
-    }
-
-    /// The line at the rate changed at `now` (it `rose`, or fell): `AutoBaud`'s idle edge.
-    fn edge(&mut self, now: Tick, rose: bool, glitch: Tick) {
-        let cancels = self.pending != Tick::MAX && now - self.pending <= glitch;
-        let (since, before) = (self.high_since, self.high_before);
-        (self.high_since, self.high_before) = match (rose, cancels) {
-            (true, false) => (now, since),
-            (false, true) => (before, before),
-            _ => (since, before),
-        };
-        self.pending = if cancels { Tick::MAX } else { now };
-    }
-}
-
 /// The transceiver block.
 #[derive(Clone, Debug)]
 pub struct Transceiver {
@@ -213,13 +173,6 @@ pub struct Transceiver {
     response: Vec<u8>,
     stats: Stats,
 }
-
-/// No rate: its idle line is never read.
-const RATE_IDLE_NONE: RateIdle = RateIdle {
-    pending: Tick::MAX,
-    high_since: 0,
-    high_before: 0,
-};
 
 /// The line is taken into the clock domain with no glitch filter: every glitch is weighed, bit by
 /// bit, where it falls. A filter would move an edge that a glitch follows within its length: by

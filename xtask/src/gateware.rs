@@ -69,6 +69,7 @@ pub fn run(args: &[String]) -> Result<()> {
         blocks::autobaud(false),
         blocks::char_reader(blocks::run_time_width()),
         blocks::edge_rx(),
+        blocks::rate_idle(),
         blocks::delimiter(),
         blocks::uart_tx(false),
         blocks::watchdog(blocks::baud_watchdog_width()),

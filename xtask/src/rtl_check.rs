@@ -63,6 +63,7 @@ pub fn run(args: &[String]) -> Result<()> {
         ),
         (blocks::autobaud(true), blocks::autobaud_cases(quick, true)),
         (blocks::edge_rx(), blocks::edge_rx_cases(quick)),
+        (blocks::rate_idle(), blocks::rate_idle_cases(quick)),
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
     ];

@@ -7,10 +7,12 @@
 pub mod autobaud;
 mod char_reader;
 mod edge_rx;
+mod rate_idle;
 mod watchdog;
 pub use autobaud::{autobaud, autobaud_cases};
 pub use char_reader::{char_reader, char_reader_cases, run_time_width, width_of};
 pub use edge_rx::{edge_rx, edge_rx_cases};
+pub use rate_idle::{rate_idle, rate_idle_cases};
 pub use watchdog::{baud_watchdog_width, dp_watchdog_width, watchdog, watchdog_cases};
 
 use crate::{Block, Case, Trace};
@@ -30,10 +32,11 @@ fn bits_for(n: u64) -> u32 {
 
 /// The transceiver's blocks in the order the signal meets them, and whether the gateware has
 /// them yet (README "Gateware").
-pub const TRANSCEIVER_BLOCKS: [(&str, bool); 8] = [
+pub const TRANSCEIVER_BLOCKS: [(&str, bool); 9] = [
     ("line_sync (synchroniser)", true),
     ("autobaud", true),
     ("edge_rx", true),
+    ("rate_idle (the receiver's idle line)", true),
     ("delimiter", true),
     ("uart_tx (min TSDR, driver enable)", true),
     ("watchdogs (baud, DP)", true),

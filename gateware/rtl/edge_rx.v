@@ -1,7 +1,7 @@
 // The receiver at a known rate: dp_phy::edge_rx::EdgeRx's twin (crates/dp-phy/src/edge_rx.rs),
-// register for register but for read_until (the readers here take every clock as it comes; the
-// model passes the clocks between its events at once) and the registers that do work a clock
-// ahead (ahead_q, good_ahead_q, due_q, idle_pending_q; below).
+// register for register but for read_until (the readers here take every sample as it comes;
+// the model passes the samples between its events at once) and the registers that do work a
+// clock ahead (ahead_q, good_ahead_q, due_q, idle_pending_q; below).
 //
 // The line comes sampled, as the search's channel of the rate samples it (EdgeRx::sampled):
 // step_i marks the sample ticks, level_i is the level last sampled, and edge_i (only with
@@ -9,23 +9,23 @@
 // their phase is as narrow as the rate's samples need (7 bits on the transceiver's schedule),
 // and stand still between them; starts, deadlines and the character's times stay ticks.
 //
-// Each clock does what the transceiver's tick does with the model, in its order: on_edge (a fall after
-// idle_before_i idle clocks opens a candidate), then act when the character under way falls
-// due (its deadline reached), which may decide a character. The character goes out on the
-// next clock, from registers (char_o and its fields): the transceiver's register between the
-// receiver's decision and the delimiter (Transceiver's `decided`). hand_over_i is the search's
-// hand-over of this clock instead of the act (EdgeRx::hand_over: the receiver starts afresh,
-// with this clock's fall; hand_over_end_i is the detected character's end, its low TickWidth
-// bits), clear_i the transceiver's reset of it after everything else (a rate dropped or
-// changed).
+// Each clock does what the transceiver's tick does with the model, in its order: on_edge (a
+// fall after idle_before_i idle clocks opens a candidate), then act when the character under
+// way falls due (its deadline reached), which may decide a character. The character goes out
+// on the next clock, from registers (char_o and its fields): the transceiver's register
+// between the receiver's decision and the delimiter (Transceiver's `decided`). hand_over_i is
+// the search's hand-over of this clock instead of the act (EdgeRx::hand_over: the receiver
+// starts afresh, with this clock's fall; hand_over_end_i is the detected character's end, its
+// low TickWidth bits), clear_i the transceiver's reset of it after everything else (a rate
+// dropped or changed).
 //
 // Two lanes of two slots: the lane cur_q the character under way, the other the next one, whose
 // candidates the falls from next_from on open while the current one's decision is pending; at
 // the decision they swap roles. A slot holds a candidate's start tick, its character reader
 // (char_reader_step, its phase wide enough for the rate chosen at run time, its figures as
-// inputs) and its
-// start bit as the reader decided it; live_q marks the slots under way and first_q the earlier
-// one. Nothing moves between slots or lanes: a reader is started in a free slot and left there.
+// inputs) and its start bit as the reader decided it; live_q marks the slots under way and
+// first_q the earlier one. Nothing moves between slots or lanes: a reader is started in a free
+// slot and left there.
 //
 // What changed for hardware: ticks are TickWidth bits (the model's u64 truncated to 18: every
 // tick kept is within two characters of now at 9.6k, so a signed difference orders them; the

@@ -32,11 +32,10 @@ int main(int argc, char** argv) {
   auto top = std::make_unique<Vedge_rx>(ctx.get());
   uint32_t clock_n = 0;
   uint8_t line = 1;
-  uint32_t period = 1, wait = 0;
+  harness::Samples samples;
   std::vector<uint8_t> last_lanes;
   auto clock = [&](uint8_t level, bool hand_over, bool clear, uint32_t idle, uint32_t end) {
-    bool step = wait == 0;
-    wait = step ? period - 1 : wait - 1;
+    bool step = samples.clock();
     if (level != line && !step) harness::fail("an edge off the sample ticks");
     top->step_i = step;
     top->level_i = level;
@@ -99,9 +98,10 @@ int main(int argc, char** argv) {
         top->start_end_i = in.u32();
         top->stop_middle_i = in.u32();
         top->stop_end_i = in.u32();
-        period = in.u32();
-        wait = in.u32();
-        if (period == 0 || wait >= period) harness::fail("a sample period of none");
+        {
+          uint32_t period = in.u32();
+          samples.set(period, in.u32());
+        }
         break;
       case 'N':
         top->now_i = in.u32();

@@ -90,6 +90,27 @@ class Outputs {
   uint32_t count_ = 0;
 };
 
+// A rate's sample ticks as the top's strobe will give them: every `period` clocks, the first
+// `wait` clocks from the next one (a stimulus's 'T' record sets both).
+class Samples {
+ public:
+  void set(uint32_t period, uint32_t wait) {
+    if (period == 0 || wait >= period) fail("a sample period of none");
+    period_ = period;
+    wait_ = wait;
+  }
+  // Whether this clock is a sample tick; then on to the next clock.
+  bool clock() {
+    bool sample = wait_ == 0;
+    wait_ = sample ? period_ - 1 : wait_ - 1;
+    return sample;
+  }
+
+ private:
+  uint32_t period_ = 1;
+  uint32_t wait_ = 0;
+};
+
 // What a block delivers beside its per-clock outputs (a telegram with its bytes, say): records
 // of u32 clock, u16 payload length, payload, compared one by one by the Rust side.
 class Events {

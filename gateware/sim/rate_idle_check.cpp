@@ -25,11 +25,10 @@ int main(int argc, char** argv) {
   auto top = std::make_unique<Vrate_idle>(ctx.get());
   uint32_t clock_n = 0;
   uint8_t line = 1;
-  uint32_t period = 1, wait = 0;
+  harness::Samples samples;
   uint32_t since = 0, before = 0;
   auto clock = [&](uint8_t level, bool load, uint32_t left, uint32_t high, uint32_t prior) {
-    bool sample = wait == 0;
-    wait = sample ? period - 1 : wait - 1;
+    bool sample = samples.clock();
     if (level != line && !sample) harness::fail("an edge off the sample ticks");
     top->sample_i = sample;
     top->edge_i = level != line;
@@ -66,9 +65,10 @@ int main(int argc, char** argv) {
     switch (op) {
       case 'T':
         top->glitch_i = in.u32();
-        period = in.u32();
-        wait = in.u32();
-        if (period == 0 || wait >= period) harness::fail("a sample period of none");
+        {
+          uint32_t period = in.u32();
+          samples.set(period, in.u32());
+        }
         break;
       case 'N':
         top->now_i = in.u32();

@@ -74,8 +74,9 @@ mod tests {
     /// A start delimiter from a master `ppm` off, back to back with the next characters, a low
     /// glitch of `len` clocks `at` clocks into the delimiter's stop bit (a decision that waits
     /// for the stop bit's end, meeting the next start within a glitch's length when the master
-    /// is fast), and glitches after it (each turns the line over while it lasts). Each copy started at a detection takes the channel's
-    /// changes from then on; `max(end, high_since)` must be the channel's at every clock.
+    /// is fast), and glitches after it (each turns the line over while it lasts). Each copy
+    /// started at a detection takes the channel's changes from then on; `max(end, high_since)`
+    /// must be the channel's at every clock. Returns the detections of the delimiter.
     fn compare(baud: Baud, ppm: i32, at: u64, len: u64, later: &[(u64, u64)]) -> usize {
         let search = AutoBaud::sampled(DEFAULT_CLOCK_HZ, OVERSAMPLED);
         let r = baud.index();

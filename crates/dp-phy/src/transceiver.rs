@@ -22,9 +22,9 @@
 //!   within a start bit, it reads the character from both. It takes the line as the search's
 //!   channel of its rate samples it ([`EdgeRx::sampled`]), and so do the idle time, the gap and
 //!   TSDR: its characters and idle line are that channel's sample ticks, which follow the line
-//!   within a sample (every clock at 3, 6 and 12 Mbit/s); no filter holds the line back. A character goes to the delimiter a
-//!   clock after the receiver decides it (a register between the two, as in the gateware);
-//!   until then it is under way.
+//!   within a sample (every clock at 3, 6 and 12 Mbit/s); no filter holds the line back. A
+//!   character goes to the delimiter a clock after the receiver decides it (a register between
+//!   the two, as in the gateware); until then it is under way.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
 //! - A response handed to [`Transceiver::respond`] starts no earlier than min TSDR bit times after

@@ -321,6 +321,11 @@ impl AutoBaud {
         self.tsyn[baud.index()]
     }
 
+    /// The longest pulse that is a glitch at `baud`, in clocks.
+    pub fn glitch_clocks(&self, baud: Baud) -> Tick {
+        self.glitch[baud.index()]
+    }
+
     /// One clock at `now` with the line `line` (its level, and whether it fell or rose on it).
     /// Returns a detection or a
     /// rejection when a decision falls due; with the receiver on a rate (`heard`), only a

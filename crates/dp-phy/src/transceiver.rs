@@ -369,15 +369,14 @@ impl Transceiver {
         if let Some(b) = self.heard() {
             if changed(&self.search_q, b) {
                 let level = self.search_q.held[b.index()];
-                self.rx_idle
-                    .edge(now, level, self.search.channel_figures(b).glitch);
+                self.rx_idle.edge(now, level, self.search.glitch_clocks(b));
             }
         }
         if let (BaudState::Trial(_), Some(f)) = (self.state, self.fallback) {
             if changed(&self.search_q, f) {
                 let level = self.search_q.held[f.index()];
                 self.fallback_idle
-                    .edge(now, level, self.search.channel_figures(f).glitch);
+                    .edge(now, level, self.search.glitch_clocks(f));
             }
         }
         let switched = match det {

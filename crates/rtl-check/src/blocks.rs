@@ -30,6 +30,12 @@ fn bits_for(n: u64) -> u32 {
     u64::BITS - n.leading_zeros()
 }
 
+/// Clocks from tick `now` to the first tick at or after it with `t % period == phase`: a
+/// rate's next sample on the search's schedule.
+fn clocks_to_sample(now: u64, period: u64, phase: u64) -> u64 {
+    (phase + period - now % period) % period
+}
+
 /// The transceiver's blocks in the order the signal meets them, and whether the gateware has
 /// them yet (README "Gateware").
 pub const TRANSCEIVER_BLOCKS: [(&str, bool); 9] = [

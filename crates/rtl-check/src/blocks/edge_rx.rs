@@ -139,7 +139,7 @@ impl RxCase {
     fn use_rate(&mut self, baud: Baud) {
         let next = receiver(baud);
         if next != self.rx {
-            self.hold((next.phase + next.period - self.now % next.period) % next.period);
+            self.hold(super::clocks_to_sample(self.now, next.period, next.phase));
             self.rx = next;
         }
         let r = *self.rx.reader();
@@ -260,8 +260,7 @@ impl RxCase {
 
     /// Clocks from the next one to the receiver's next sample tick.
     fn to_sample(&self) -> Tick {
-        let (period, phase) = (self.rx.period, self.rx.phase);
-        (phase + period - self.now % period) % period
+        super::clocks_to_sample(self.now, self.rx.period, self.rx.phase)
     }
 
     /// One clock with the line at `level`, a fall's idle clocks before it, the search's

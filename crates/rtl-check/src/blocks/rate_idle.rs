@@ -71,8 +71,7 @@ impl IdleCase {
 
     /// Clocks from the next one to the rate's next sample tick.
     fn to_sample(&self) -> Tick {
-        let (period, phase) = (self.figures.period, self.figures.phase);
-        (phase + period - self.now % period) % period
+        super::clocks_to_sample(self.now, self.figures.period, self.figures.phase)
     }
 
     /// The samples within which a next edge still cancels the pending one, as the RTL counts

@@ -24,7 +24,8 @@
 //!   TSDR: its characters and idle line are that channel's sample ticks, which follow the line
 //!   within a sample (every clock at 3, 6 and 12 Mbit/s); no filter holds the line back. A
 //!   character goes to the delimiter a clock after the receiver decides it (a register between
-//!   the two, as in the gateware); until then it is under way.
+//!   the two, as in the gateware); until then it is under way. So does a detection's character:
+//!   the delimiter takes one character a clock.
 //! - Every telegram is delivered with its status and end tick ([`TickOut::telegram`], then
 //!   [`Transceiver::telegram`]); only those starting after TSYN idle bits are taken.
 //! - A response handed to [`Transceiver::respond`] starts no earlier than min TSDR bit times after
@@ -161,6 +162,11 @@ pub struct Transceiver {
     /// delimiter, as the gateware has it (README "Gateware": the decision's logic and the
     /// delimiter's do not fit one 48 MHz clock together).
     decided: Option<(RxChar, Tick)>,
+    /// The character a detection decoded, delivered on the next clock as the receiver's are:
+    /// the delimiter takes one character a clock, and on a detection's clock it may take the
+    /// receiver's last one at the old rate. The search checked TSYN before it, and it is never
+    /// the transceiver's echo (it started the trial).
+    detected: Option<RxChar>,
     /// The last tick the transmitter drove the line: a character that started by then is the
     /// transceiver's own echo.
     drove_until: Tick,
@@ -198,6 +204,7 @@ impl Transceiver {
             rx_idle: RATE_IDLE_NONE,
             fallback_idle: RATE_IDLE_NONE,
             decided: None,
+            detected: None,
             drove_until: 0,
             watchdog: Watchdog::STOPPED,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
@@ -347,6 +354,10 @@ impl Transceiver {
                 self.on_char(&c, idle_before, &mut out);
             }
         }
+        if let Some(c) = self.detected.take() {
+            self.last_end = c.end;
+            self.on_char(&c, Tick::MAX, &mut out);
+        }
         let (sf, sfq) = filter::next(line, SYNC_FILTER_LEN, &self.sync_q);
         self.sync_q = sfq;
         // The line as each rate's channel sampled it before this clock: the receiver takes the
@@ -456,14 +467,12 @@ impl Transceiver {
         if let Some(rx) = self.rx {
             rx.hand_over(d.start, d.end, self.now, fell, &mut self.rx_q);
         }
-        let c = RxChar {
+        self.detected = Some(RxChar {
             byte: d.byte,
             error: None,
             start: d.start,
             end: d.end,
-        };
-        // The search has checked TSYN before this character already.
-        self.on_char(&c, Tick::MAX, out);
+        });
         true
     }
 
@@ -565,7 +574,7 @@ impl Transceiver {
         // An edge is ticked: the search and the receiver both act on it; so is a character
         // decided and not yet delivered.
         let now = self.now;
-        if self.decided.is_some() {
+        if self.decided.is_some() || self.detected.is_some() {
             return 0;
         }
         let (sync_quiet, _) = filter::quiet_for(line, SYNC_FILTER_LEN, &self.sync_q);

@@ -802,8 +802,8 @@ fn pinned_waveforms() {
     assert_eq!(exchange, PINNED_12M, "exchange at 12M");
 }
 
-const PINNED_LOCK: &str = "481a76ec9aa313b5e6267b3a111614f9f31c009a3b9a0ddc143c0d1a764a72da";
-const PINNED_12M: &str = "527f878680a12e012037566416a51b47e322c4ab94d23d472ec471322d758571";
+const PINNED_LOCK: &str = "23a81ddd1cd2ab997e551b7686f8f25e81c126d4ec532fe7168db28759cfe91d";
+const PINNED_12M: &str = "7dac91b630d42dd88655f65d513021d8b9f047132184cdb650843701407fecc4";
 
 /// Found by `PROPTEST_CASES=20000` (issue 31): fast mode counted one search rejection fewer
 /// than strict mode at 9.6k with glitches.

@@ -17,7 +17,7 @@ module edge_rx_fit (
   output wire fold_o
 );
   localparam int PW = 7;
-  localparam int FiguresWidth = 7 * PW + (PW + 1) + 3 * 16 + 24 + 18;
+  localparam int FiguresWidth = 7 * PW + (PW + 1) + 3 * 16 + 24 + 24;
   logic [FiguresWidth-1:0] figures_q;
   logic [31:0]             now_q;
   always_ff @(posedge clk_i) begin
@@ -25,7 +25,7 @@ module edge_rx_fit (
     now_q     <= now_q + 32'd1;
   end
 
-  logic        char_, active, active_next, next_active, next_from_valid;
+  logic        char_, active, active_next, deciding, next_active, next_from_valid;
   logic [7:0]  byte_;
   logic [2:0]  error;
   logic [31:0] start, end_;
@@ -42,19 +42,19 @@ module edge_rx_fit (
     .start_end_i(figures_q[Offsets +: 16]), .stop_middle_i(figures_q[Offsets + 16 +: 16]),
     .stop_end_i(figures_q[Offsets + 32 +: 16]), .step_i, .level_i, .edge_i,
     .idle_before_i(figures_q[Offsets + 48 +: 24]), .hand_over_i,
-    .hand_over_end_i(figures_q[Offsets + 72 +: 18]),
+    .hand_over_idle_i(figures_q[Offsets + 72 +: 24]),
     .clear_i,
     .char_o(char_), .char_byte_o(byte_), .char_error_o(error), .char_start_o(start),
     .char_end_o(end_), .char_idle_before_o(idle_before), .active_o(active),
-    .active_next_o(active_next), .deadline_o(deadline), .stage_o(stage),
+    .active_next_o(active_next), .deciding_o(deciding), .deadline_o(deadline), .stage_o(stage),
     .next_active_o(next_active), .next_from_valid_o(next_from_valid), .next_from_o(next_from)
   );
 
-  localparam int OutWidth = 1 + 8 + 3 + 32 + 32 + 24 + 1 + 1 + 18 + 2 + 1 + 1 + 18;
+  localparam int OutWidth = 1 + 8 + 3 + 32 + 32 + 24 + 1 + 1 + 1 + 18 + 2 + 1 + 1 + 18;
   logic [OutWidth-1:0] out_q;
   logic                fold_q;
   always_ff @(posedge clk_i) begin
-    out_q  <= {char_, byte_, error, start, end_, idle_before, active, active_next, deadline,
+    out_q  <= {char_, byte_, error, start, end_, idle_before, active, active_next, deciding, deadline,
                stage, next_active, next_from_valid, next_from};
     fold_q <= ^out_q;
   end

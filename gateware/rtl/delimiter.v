@@ -5,8 +5,12 @@
 // first thing wrong with it: a character error, an idle gap inside, LE != LEr or a missing second
 // SD2, LE out of 4..249, a bad FCS, a missing ED. Each call of the model is an input strobe of
 // this clock, in the model's order: a character (on_char, with the idle clocks before it), then
-// the idle check (on_idle, on every clock the receiver is not inside a character). The outputs
-// are what those calls return, in the same clock.
+// the idle check (on_idle, on every clock the receiver is not inside a character), then a reset
+// or a rate's configuration (Delimiter::reset, Delimiter::new's figures). The outputs are what
+// those calls return, in the same clock; the character's own (char_*_o) are also given apart,
+// from the character and the registers only, for the transceiver acts on them before it knows
+// whether the idle check runs (three always_comb blocks, so that no output of the character's
+// depends on the later inputs).
 //
 // What changed for hardware: the model sums the FCS over its buffer when the telegram is
 // complete; here fcs_q sums the body as the characters come, and fcs_ok_q keeps whether the FCS
@@ -35,6 +39,13 @@ module delimiter (
   input  wire        idle_check_i,
   input  wire [23:0] idle_i,
   input  wire [31:0] now_i,
+  // The character's delivery alone (Delivery::Telegram from on_char), its status and the
+  // telegram's first byte (an SC does not confirm a rate).
+  output logic       char_deliver_o,
+  output logic [3:0] char_status_o,
+  output logic [7:0] first_o,
+  // A telegram under way after the character and the idle check (before a reset).
+  output logic       inside_o,
   // Delivery::Telegram and Delivery::NotSynced of this clock, the telegram's status (0 good,
   // 1-4 a character error as char_error_i, 5 gap, 6 bad delimiter, 7 length mismatch, 8 bad
   // length, 9 bad FCS, 10 no ED), its length and end tick.
@@ -72,20 +83,22 @@ module delimiter (
   logic [7:0] len_base, expect_base, first_now, index_fcs;
   logic       has_fcs, in_body;
 
+  // After the character.
+  logic        inside_c;
+  logic [31:0] char_end;
+
   always_comb begin
-    tsyn_d       = tsyn_q;
-    gap_d        = gap_q;
-    inside_d     = inside_q;
+    inside_c     = inside_q;
     expect_d     = expect_q;
     len_d        = len_q;
     first_d      = first_q;
     le_d         = le_q;
     fcs_d        = fcs_q;
     fcs_ok_d     = fcs_ok_q;
-    deliver_o    = 1'b0;
+    char_deliver_o = 1'b0;
     not_synced_o = 1'b0;
-    status_o     = StGood;
-    end_o        = '0;
+    char_status_o = StGood;
+    char_end     = '0;
     wr_o         = 1'b0;
     wr_addr_o    = len_q;
     wr_data_o    = char_byte_i;
@@ -98,18 +111,12 @@ module delimiter (
     has_fcs      = 1'b0;
     in_body      = 1'b0;
 
-    if (config_i) begin
-      tsyn_d   = tsyn_clocks_i;
-      gap_d    = gap_clocks_i;
-      inside_d = 1'b0;
-    end else if (reset_i) begin
-      inside_d = 1'b0;
-    end else begin
+    begin
       if (char_i) begin
         if (inside_q) begin
           if (char_idle_before_i > gap_q) begin
             ends     = 1'b1;
-            status_o = StGap;
+            char_status_o = StGap;
           end else begin
             appending = 1'b1;
           end
@@ -118,12 +125,12 @@ module delimiter (
         end else begin
           len_base = '0;
           len_d    = '0;
-          inside_d = 1'b1;
+          inside_c = 1'b1;
           fcs_d    = '0;
           fcs_ok_d = 1'b0;
           if (char_error_i != 3'd0) begin
             ends     = 1'b1;
-            status_o = {1'b0, char_error_i};
+            char_status_o = {1'b0, char_error_i};
           end else begin
             appending = 1'b1;
             case (char_byte_i)
@@ -139,7 +146,7 @@ module delimiter (
                 wr_addr_o = 8'd0;
                 len_d     = 8'd1;
                 ends     = 1'b1;
-                status_o = StBadDelimiter;
+                char_status_o = StBadDelimiter;
               end
             endcase
             expect_d = expect_base;
@@ -150,7 +157,7 @@ module delimiter (
       if (appending) begin
         if (char_error_i != 3'd0) begin
           ends     = 1'b1;
-          status_o = {1'b0, char_error_i};
+          char_status_o = {1'b0, char_error_i};
         end else begin
           wr_o      = 1'b1;
           wr_addr_o = len_base;
@@ -170,15 +177,15 @@ module delimiter (
           if (first_now == SD2 && len_base == 8'd1
               && (char_byte_i < 8'd4 || char_byte_i > 8'd249)) begin
             ends     = 1'b1;
-            status_o = StBadLength;
+            char_status_o = StBadLength;
           end else if (first_now == SD2 && len_base == 8'd1) begin
             le_d = char_byte_i;
           end else if (first_now == SD2 && len_base == 8'd2 && char_byte_i != le_q) begin
             ends     = 1'b1;
-            status_o = StLengthMismatch;
+            char_status_o = StLengthMismatch;
           end else if (first_now == SD2 && len_base == 8'd3 && char_byte_i != SD2) begin
             ends     = 1'b1;
-            status_o = StLengthMismatch;
+            char_status_o = StLengthMismatch;
           end else begin
             if (first_now == SD2 && len_base == 8'd2) begin
               // LE was checked to be at most 249: LE + 6 fits.
@@ -187,10 +194,10 @@ module delimiter (
             end
             if (expect_base != 8'd0 && len_base + 8'd1 >= expect_base) begin
               ends = 1'b1;
-              if (!has_fcs)                 status_o = StGood;
-              else if (!fcs_ok_d)           status_o = StBadFcs;
-              else if (char_byte_i != ED)   status_o = StNoEnd;
-              else                          status_o = StGood;
+              if (!has_fcs)                 char_status_o = StGood;
+              else if (!fcs_ok_d)           char_status_o = StBadFcs;
+              else if (char_byte_i != ED)   char_status_o = StNoEnd;
+              else                          char_status_o = StGood;
             end
           end
         end
@@ -198,20 +205,31 @@ module delimiter (
 
       // A character that ends the telegram delivers it, at its end tick.
       if (ends) begin
-        deliver_o = 1'b1;
-        end_o     = char_end_i;
-        inside_d  = 1'b0;
+        char_deliver_o = 1'b1;
+        char_end  = char_end_i;
+        inside_c  = 1'b0;
       end
 
-      // on_idle, after the character.
-      if (idle_check_i && inside_d && idle_i > gap_q) begin
-        deliver_o = 1'b1;
-        status_o  = StGap;
-        end_o     = now_i;
-        inside_d  = 1'b0;
-      end
     end
-    len_o = len_d;
+    len_o   = len_d;
+    first_o = first_now;
+  end
+
+  // on_idle, after the character.
+  logic gap;
+  always_comb begin
+    gap       = idle_check_i && inside_c && idle_i > gap_q;
+    inside_o  = inside_c && !gap;
+    deliver_o = char_deliver_o || gap;
+    status_o  = gap ? StGap : char_status_o;
+    end_o     = gap ? now_i : char_end;
+  end
+
+  // Then a reset or a rate's figures.
+  always_comb begin
+    tsyn_d   = config_i ? tsyn_clocks_i : tsyn_q;
+    gap_d    = config_i ? gap_clocks_i : gap_q;
+    inside_d = inside_o && !config_i && !reset_i;
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin

@@ -15,9 +15,10 @@
 // on the next clock, from registers (char_o and its fields): the transceiver's register
 // between the receiver's decision and the delimiter (Transceiver's `decided`). hand_over_i is
 // the search's hand-over of this clock instead of the act (EdgeRx::hand_over: the receiver
-// starts afresh, with this clock's fall; hand_over_end_i is the detected character's end, its
-// low TickWidth bits), clear_i the transceiver's reset of it after everything else (a rate
-// dropped or changed).
+// starts afresh, with this clock's fall, hand_over_idle_i the idle clocks before it: after
+// the detected character's end, or the line's at a lock taken back), clear_i the transceiver's
+// reset of it after everything else (a rate dropped or changed). A hand-over without a fall is
+// the transceiver's receiver reset before this clock (a new rate, or none).
 //
 // Two lanes of two slots: the lane cur_q the character under way, the other the next one, whose
 // candidates the falls from next_from on open while the current one's decision is pending; at
@@ -62,7 +63,7 @@ module edge_rx #(
   input  wire                   edge_i,
   input  wire [IdleWidth-1:0]   idle_before_i,
   input  wire                   hand_over_i,
-  input  wire [TickWidth-1:0]   hand_over_end_i,
+  input  wire [IdleWidth-1:0]   hand_over_idle_i,
   input  wire                   clear_i,
   // A character decided on the last clock: its byte, error (0 none, 1 parity, 2 framing, 3
   // break, 4 noise: delimiter.v's code), start and end ticks, and the idle clocks before it.
@@ -75,6 +76,9 @@ module edge_rx #(
   // A character under way (EdgeRxQ::active), after the last clock and as this clock leaves it.
   output wire                   active_o,
   output wire                   active_next_o,
+  // A character decided on this clock (out on the next): with active_next_o, whether one is
+  // under way as this clock leaves it.
+  output wire                   deciding_o,
   // For the checker: the current lane's deadline and stage, the next lane under way,
   // next_from (ticks of TickWidth bits).
   output wire [TickWidth-1:0]   deadline_o,
@@ -519,7 +523,7 @@ module edge_rx #(
         starts_d[0 +: TW]   = now;
         start_low_d[0]      = 1'b0;
         opened_d[0 +: TW]   = now;
-        idle_d[0 +: IW]     = idle_between(hand_over_end_i, now);
+        idle_d[0 +: IW]     = hand_over_idle_i;
         deadline_d[0 +: TW] = now + TW'(start_end_i);
       end
     end
@@ -574,6 +578,7 @@ module edge_rx #(
   end
 
   assign active_o          = cur_q ? live_q[3:2] != 2'b00 : live_q[1:0] != 2'b00;
+  assign deciding_o        = char_d;
   assign active_next_o     = cur_d ? live_d[3:2] != 2'b00 : live_d[1:0] != 2'b00;
   assign deadline_o        = cur_q ? deadline_q[TW +: TW] : deadline_q[0 +: TW];
   assign stage_o           = cur_q ? stage_q[3:2] : stage_q[1:0];

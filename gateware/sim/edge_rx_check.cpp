@@ -7,7 +7,7 @@
 // (now_i of the next clock; it counts up a clock at a time); 'L' u8 level, u32 n (n clocks,
 // the line held at level: no edge); 'K' u8 flags (bit 0 the line's level as sampled, an edge
 // if it changed, on a sample tick only; bit 1 hand_over_i; bit 2 clear_i), u32 idle_before,
-// u32 hand_over_end (one clock).
+// u32 hand_over_idle (the idle clocks before the hand-over's fall; one clock).
 // Outputs each clock after its edge: bit 0 active_o, bit 1 char_o (out on that clock, decided
 // on the one before), bits 2-3 stage_o, bit 4 next_active_o, bit 5 next_from_valid_o. An event
 // on each clock with a character or a change of the current lane's deadline or next_from: the
@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
   uint8_t line = 1;
   harness::Samples samples;
   std::vector<uint8_t> last_lanes;
-  auto clock = [&](uint8_t level, bool hand_over, bool clear, uint32_t idle, uint32_t end) {
+  auto clock = [&](uint8_t level, bool hand_over, bool clear, uint32_t idle, uint32_t hand_over_idle) {
     bool step = samples.clock();
     if (level != line && !step) harness::fail("an edge off the sample ticks");
     top->step_i = step;
@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
     top->hand_over_i = hand_over;
     top->clear_i = clear;
     top->idle_before_i = idle;
-    top->hand_over_end_i = end;
+    top->hand_over_idle_i = hand_over_idle;
     line = level;
     // The character out on this clock (decided on the last): read it before the edge.
     top->clk_i = 0;
@@ -114,8 +114,8 @@ int main(int argc, char** argv) {
       case 'K': {
         uint8_t flags = in.u8();
         uint32_t idle = in.u32();
-        uint32_t end = in.u32();
-        clock(flags & 1, flags & 2, flags & 4, idle, end);
+        uint32_t hand_over_idle = in.u32();
+        clock(flags & 1, flags & 2, flags & 4, idle, hand_over_idle);
         break;
       }
       default:

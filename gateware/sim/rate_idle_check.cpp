@@ -4,8 +4,8 @@
 // the first wait clocks from the next one: sample_i, counted here as the top's strobe will
 // come); 'N' u32 (now_i of the next clock; it counts up a clock at a time); 'L' u8 level, u32 n
 // (n clocks, the line held at level); 'K' u8 flags (bit 0 the line's level as sampled, an edge
-// if it changed, on a sample only; bit 1 load_i), u32 cancel_left, high_since, high_before
-// (the load's; one clock). Outputs each clock after its edge: bit 0 an edge still cancels
+// if it changed, on a sample only; bit 1 load_i, bit 2 restore_i: the values go to either),
+// u32 cancel_left, high_since, high_before (one clock). Outputs each clock after its edge: bit 0 an edge still cancels
 // (cancel_left_o not 0). An event on each clock that changes high_since_o or high_before_o:
 // both (u32 each).
 #include <memory>
@@ -27,7 +27,8 @@ int main(int argc, char** argv) {
   uint8_t line = 1;
   harness::Samples samples;
   uint32_t since = 0, before = 0;
-  auto clock = [&](uint8_t level, bool load, uint32_t left, uint32_t high, uint32_t prior) {
+  auto clock = [&](uint8_t level, bool load, bool restore, uint32_t left, uint32_t high,
+                   uint32_t prior) {
     bool sample = samples.clock();
     if (level != line && !sample) harness::fail("an edge off the sample ticks");
     top->sample_i = sample;
@@ -37,6 +38,10 @@ int main(int argc, char** argv) {
     top->load_cancel_left_i = left;
     top->load_high_since_i = high;
     top->load_high_before_i = prior;
+    top->restore_i = restore;
+    top->restore_cancel_left_i = left;
+    top->restore_high_since_i = high;
+    top->restore_high_before_i = prior;
     line = level;
     top->clk_i = 1;
     top->eval();
@@ -60,6 +65,7 @@ int main(int argc, char** argv) {
   top->edge_i = 0;
   top->sample_i = 0;
   top->load_i = 0;
+  top->restore_i = 0;
   harness::reset(*top);
   for (int op; (op = in.op()) >= 0;) {
     switch (op) {
@@ -75,7 +81,7 @@ int main(int argc, char** argv) {
         break;
       case 'L': {
         uint8_t level = in.u8();
-        for (uint32_t n = in.u32(); n > 0; n--) clock(level, false, 0, 0, 0);
+        for (uint32_t n = in.u32(); n > 0; n--) clock(level, false, false, 0, 0, 0);
         break;
       }
       case 'K': {
@@ -83,7 +89,7 @@ int main(int argc, char** argv) {
         uint32_t left = in.u32();
         uint32_t high = in.u32();
         uint32_t prior = in.u32();
-        clock(flags & 1, flags & 2, left, high, prior);
+        clock(flags & 1, flags & 2, flags & 4, left, high, prior);
         break;
       }
       default:

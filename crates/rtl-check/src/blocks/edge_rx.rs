@@ -276,8 +276,10 @@ impl RxCase {
             .push(u8::from(level) | u8::from(hand_over.is_some()) << 1 | u8::from(clear) << 2);
         self.stimulus
             .extend_from_slice(&(idle.min(IDLE_MAX) as u32).to_le_bytes());
+        // The hand-over's fall's idle clocks, as the transceiver gives them.
+        let hand_over_idle = hand_over.map_or(0, |end| self.now.saturating_sub(end).min(IDLE_MAX));
         self.stimulus
-            .extend_from_slice(&(hand_over.unwrap_or(0) as u32).to_le_bytes());
+            .extend_from_slice(&(hand_over_idle as u32).to_le_bytes());
         self.tick(level, idle, hand_over, clear);
     }
 

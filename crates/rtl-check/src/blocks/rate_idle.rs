@@ -2,7 +2,7 @@
 //! `dp_phy::rate_idle::RateIdle`, driven as the transceiver's top will drive it: at every rate
 //! on the transceiver's sampling of it, the line's changes as that rate samples them (glitches
 //! of up to two glitch lengths, so that some cancel and some do not, and runs of up to three
-//! bits), and loads now and then: a detection's channel state (its pending edge as the samples
+//! bits), and loads now and then (after the change, or as a restore before it): a detection's channel state (its pending edge as the samples
 //! it still cancels within, and the character's end as the high ticks), on a sample tick, as
 //! the search gives it. Ticks start near the 32-bit wrap in some cases.
 
@@ -86,12 +86,16 @@ impl IdleCase {
         (f.glitch / f.period).saturating_sub(since)
     }
 
-    /// One clock, as the transceiver's top takes it: a load, or the line's change.
-    fn tick(&mut self, level: bool, load: Option<RateIdle>) {
+    /// One clock, as the transceiver's top takes it: a restore, the line's change, a load.
+    fn tick(&mut self, level: bool, restore: Option<RateIdle>, load: Option<RateIdle>) {
+        if let Some(state) = restore {
+            self.idle = state;
+        }
+        if level != self.line {
+            self.idle.edge(self.now, level, self.figures.glitch);
+        }
         if let Some(state) = load {
             self.idle = state;
-        } else if level != self.line {
-            self.idle.edge(self.now, level, self.figures.glitch);
         }
         self.line = level;
         self.trace.push(u8::from(self.cancel_left() != 0));
@@ -118,25 +122,29 @@ impl IdleCase {
             self.stimulus.push(u8::from(self.line));
             self.stimulus.extend(run.to_le_bytes());
             for _ in 0..run {
-                self.tick(self.line, None);
+                self.tick(self.line, None, None);
             }
             n -= u64::from(run);
         }
     }
 
-    /// The line changes to `level` on the rate's next sample tick, or there a load takes
-    /// `left` samples of a pending edge and `end` as its high ticks.
-    fn special(&mut self, level: bool, load: Option<(u64, Tick)>) {
+    /// The line changes to `level` on the rate's next sample tick, and there a load (or with
+    /// `restore`, a restore before the change) takes `left` samples of a pending edge and
+    /// `end` as its high ticks.
+    fn special(&mut self, level: bool, load: Option<(u64, Tick)>, restore: bool) {
         self.hold(self.to_sample());
         let state = load.map(|(left, end)| {
             let f = &self.figures;
             let glitch = f.glitch / f.period;
+            // The samples since it: the glitch's less those left, after this clock's sample
+            // for a load; a restore takes registers as the last clock left them, and this
+            // clock's sample counts one more.
+            let since = glitch - left + u64::from(restore);
             RateIdle {
-                // The samples since it: the glitch's less those left.
                 pending: if left == 0 {
                     Tick::MAX
                 } else {
-                    self.now - (glitch - left) * f.period
+                    self.now - since * f.period
                 },
                 high_since: end,
                 high_before: end,
@@ -144,12 +152,19 @@ impl IdleCase {
         });
         let (left, end) = load.unwrap_or((0, 0));
         self.stimulus.push(b'K');
-        self.stimulus
-            .push(u8::from(level) | u8::from(load.is_some()) << 1);
+        self.stimulus.push(
+            u8::from(level)
+                | u8::from(load.is_some() && !restore) << 1
+                | u8::from(load.is_some() && restore) << 2,
+        );
         self.stimulus.extend((left as u32).to_le_bytes());
         self.stimulus.extend((end as u32).to_le_bytes());
         self.stimulus.extend((end as u32).to_le_bytes());
-        self.tick(level, state);
+        if restore {
+            self.tick(level, state, None);
+        } else {
+            self.tick(level, None, state);
+        }
     }
 
     fn finish(self, name: String) -> Case {
@@ -189,18 +204,25 @@ pub fn rate_idle_cases(quick: bool) -> Vec<Case> {
                             0
                         };
                         let end = (case.now + rng.gen_range(0..bit)).saturating_sub(bit / 2);
-                        case.special(case.line, Some((left, end)));
+                        // Or another copy's registers taken back, before a change or none.
+                        let restore = rng.gen_bool(0.3);
+                        let level = if restore && rng.gen_bool(0.5) {
+                            !case.line
+                        } else {
+                            case.line
+                        };
+                        case.special(level, Some((left, end)), restore);
                     }
                     1..=5 => {
                         // A pulse of up to two glitch lengths.
                         let level = !case.line;
-                        case.special(level, None);
+                        case.special(level, None, false);
                         case.hold(rng.gen_range(0..2 * f.glitch + f.period));
-                        case.special(!level, None);
+                        case.special(!level, None, false);
                     }
                     _ => {
                         let level = !case.line;
-                        case.special(level, None);
+                        case.special(level, None, false);
                         case.hold(rng.gen_range(0..3 * bit));
                     }
                 }

@@ -16,34 +16,12 @@
 
 use crate::{check_flags, flag_value, project_root};
 use anyhow::{bail, Context, Result};
-use dp_phy::bus::FaultInjector;
-use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Testbench};
+use dp_phy::sweep::{self, cases, Scenario, SweepCase, SweepRun};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
-use dp_phy::{Baud, BaudState, BitTiming, Config, Tick};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use dp_phy::{Baud, BaudState, Config, Tick};
 use std::fmt::Write as _;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Scenario {
-    PowerUp,
-    /// The adapter is locked at `from`, then the master switches to the case's rate.
-    RateChange {
-        from: Baud,
-    },
-}
-
-#[derive(Clone, Copy, Debug)]
-struct Case {
-    scenario: Scenario,
-    baud: Baud,
-    ppm: i32,
-    /// Glitches (shorter than half a bit) per telegram time: 0, 1 or 3.
-    noise: u32,
-    /// Start phase in sample clocks.
-    phase: u64,
-    seed: u64,
-}
+type Case = SweepCase;
 
 #[derive(Clone, Debug, Default, PartialEq)]
 struct Outcome {
@@ -70,100 +48,16 @@ struct Row {
     outcome: Outcome,
 }
 
-const TELEGRAMS: usize = 12;
 const CSV_HEADER: &str = "scenario,rate,ppm,noise,phase,locked_rate,first_telegram_lock,lost_before_lock,lock_time_bits,false_lock,corrupt_delivered,noise_relocks,lost_not_hit";
 
-fn cases(quick: bool) -> Vec<Case> {
-    let offsets: &[i32] = if quick {
-        &[-5000, 0, 5000]
-    } else {
-        &[-5000, -2500, 0, 2500, 5000]
-    };
-    let noises: &[u32] = if quick { &[0, 1] } else { &[0, 1, 3] };
-    let phases: &[u64] = if quick {
-        &[0, 777]
-    } else {
-        &[0, 1, 2, 3, 777, 12_345]
-    };
-    let mut out = Vec::new();
-    let mut seed = 0;
-    for (i, &baud) in Baud::ALL.iter().enumerate() {
-        // The rate the adapter was on before: a far one and a neighbour, in turn; and the
-        // slowest and the fastest rate from each other.
-        let mut scenarios = vec![
-            Scenario::PowerUp,
-            Scenario::RateChange {
-                from: Baud::ALL[(i + 5 + (i % 2) * 4) % 10],
-            },
-        ];
-        let (slowest, fastest) = (Baud::ALL[0], Baud::ALL[9]);
-        if baud == slowest {
-            scenarios.push(Scenario::RateChange { from: fastest });
-        }
-        if baud == fastest {
-            scenarios.push(Scenario::RateChange { from: slowest });
-        }
-        for scenario in scenarios {
-            for &ppm in offsets {
-                for &noise in noises {
-                    for &phase in phases {
-                        seed += 1;
-                        out.push(Case {
-                            scenario,
-                            baud,
-                            ppm,
-                            noise,
-                            phase,
-                            seed,
-                        });
-                    }
-                }
-            }
-        }
-    }
-    out
-}
-
 fn run_case(c: &Case, cfg: &Config) -> Outcome {
-    let mut rng = ChaCha8Rng::seed_from_u64(c.seed);
-    let target = BitTiming::new(DEFAULT_CLOCK_HZ, c.baud, c.ppm);
-    let first_timing = match c.scenario {
-        Scenario::PowerUp => target,
-        Scenario::RateChange { from } => BitTiming::new(DEFAULT_CLOCK_HZ, from, -c.ppm),
-    };
-    let mut tb = Testbench::new(*cfg, first_timing, FaultInjector::none());
-    tb.run_until(c.phase, true);
-    if let Scenario::RateChange { .. } = c.scenario {
-        tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 4));
-        tb.run_out(40, true);
-        tb.set_master_timing(target);
-    }
-    // From here on, the telegrams at the case's rate, as fast as a master polls. With more
-    // noise, more telegrams give the search its chance (a glitch within TSYN before a telegram
-    // rightly costs that telegram).
-    let from_tick = tb.now();
-    let from_sent = tb.sent.len();
-    let count = TELEGRAMS * (1 + c.noise as usize);
-    let idle = 33;
-    let sent = poll_sequence(&mut rng, count);
-    for (i, t) in sent.iter().enumerate() {
-        tb.send(if i == 0 { 40 } else { idle }, t);
-    }
-    if c.noise > 0 {
-        let bits_per_telegram = idle as u64 + 40 * 11;
-        let span = target.clocks_for(count as u64 * bits_per_telegram, 1);
-        let mut f = FaultInjector::none();
-        let max_len = (target.clocks_per_bit() / 2).saturating_sub(1).max(1);
-        f.glitches(
-            c.seed,
-            from_tick,
-            from_tick + span,
-            count * c.noise as usize,
-            max_len,
-        );
-        tb.bus.faults = f;
-    }
-    tb.run_out(40, true);
+    let SweepRun {
+        tb,
+        target,
+        from_tick,
+        from_sent,
+        sent,
+    } = sweep::drive(c, cfg, true, |_| {});
     let mut o = Outcome::default();
     let log: Vec<(Tick, BaudState)> = tb
         .baud_log
@@ -228,10 +122,7 @@ fn run_case(c: &Case, cfg: &Config) -> Outcome {
 }
 
 fn scenario_name(s: Scenario) -> String {
-    match s {
-        Scenario::PowerUp => "power-up".to_string(),
-        Scenario::RateChange { from } => format!("change-from-{from}"),
-    }
+    s.to_string()
 }
 
 fn parse_baud(s: &str) -> Result<Baud> {

@@ -34,6 +34,7 @@ pub mod filter;
 pub mod rate_idle;
 pub mod responder;
 pub mod station;
+pub mod sweep;
 pub mod testbench;
 pub mod timing;
 pub mod trace;

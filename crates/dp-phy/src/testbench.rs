@@ -31,7 +31,12 @@ pub struct Testbench {
     /// Every telegram handed to the master's transmitter, with the tick it was handed over.
     pub sent: Vec<(Tick, Outgoing)>,
     tracer: Option<Tracer<Box<dyn Write>>>,
+    observer: Option<Observer>,
 }
+
+/// Told every clock of a strict run: the line the adapter saw, the adapter after the clock, and
+/// its outputs of the clock.
+pub type Observer = Box<dyn FnMut(bool, &Transceiver, crate::TickOut)>;
 
 impl Testbench {
     pub fn new(cfg: Config, master: BitTiming, faults: FaultInjector) -> Self {
@@ -43,6 +48,7 @@ impl Testbench {
             baud_log: Vec::new(),
             sent: Vec::new(),
             tracer: None,
+            observer: None,
         }
     }
 
@@ -50,6 +56,12 @@ impl Testbench {
     pub fn trace_to(&mut self, out: Box<dyn Write>) -> std::io::Result<()> {
         self.tracer = Some(Tracer::new(out, self.adapter.config().clock_hz, "adapter")?);
         Ok(())
+    }
+
+    /// Tell `observer` every clock from now on; the bench runs strict from then on (fast
+    /// mode's skips have no clocks to tell).
+    pub fn observe(&mut self, observer: Observer) {
+        self.observer = Some(observer);
     }
 
     pub fn now(&self) -> Tick {
@@ -94,6 +106,9 @@ impl Testbench {
         if let Some(t) = &mut self.tracer {
             t.sample(now, line, &self.adapter).expect("waveform write");
         }
+        if let Some(observe) = &mut self.observer {
+            observe(line, &self.adapter, out);
+        }
     }
 
     /// As many clocks as can be skipped at once, or one strict clock.
@@ -105,7 +120,7 @@ impl Testbench {
             .quiet_for()
             .min(self.bus.faults.quiet_for(now))
             .min(limit);
-        if quiet == 0 || self.tracer.is_some() {
+        if quiet == 0 || self.tracer.is_some() || self.observer.is_some() {
             return self.step_strict();
         }
         let line = self

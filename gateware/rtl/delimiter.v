@@ -44,8 +44,10 @@ module delimiter (
   output logic       char_deliver_o,
   output logic [3:0] char_status_o,
   output logic [7:0] first_o,
-  // A telegram under way after the character and the idle check (before a reset).
+  // A telegram under way after the character and the idle check (before a reset), and as the
+  // last clock left it (the register).
   output logic       inside_o,
+  output wire        in_telegram_o,
   // Delivery::Telegram and Delivery::NotSynced of this clock, the telegram's status (0 good,
   // 1-4 a character error as char_error_i, 5 gap, 6 bad delimiter, 7 length mismatch, 8 bad
   // length, 9 bad FCS, 10 no ED), its length and end tick.
@@ -231,6 +233,8 @@ module delimiter (
     gap_d    = config_i ? gap_clocks_i : gap_q;
     inside_d = inside_o && !config_i && !reset_i;
   end
+
+  assign in_telegram_o = inside_q;
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin

@@ -67,6 +67,10 @@ module rate_idle #(
     end else if (sample_i && cancels) begin
       cancel_left_e_o = cancel_left_b - 1'b1;
     end
+  end
+
+  // The load, in a block of its own: what it loads may come from these registers' change.
+  always_comb begin
     cancel_left_d = load_i ? load_cancel_left_i : cancel_left_e_o;
     high_since_d  = load_i ? load_high_since_i : high_since_e_o;
     high_before_d = load_i ? load_high_before_i : high_before_e_o;

@@ -66,6 +66,7 @@ pub fn run(args: &[String]) -> Result<()> {
         (blocks::rate_idle(), blocks::rate_idle_cases(quick)),
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
+        (blocks::transceiver(), blocks::transceiver_cases(quick)),
     ];
     for width in [blocks::baud_watchdog_width(), blocks::dp_watchdog_width()] {
         runs.push((

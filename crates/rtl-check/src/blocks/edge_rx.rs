@@ -43,7 +43,7 @@ pub fn edge_rx() -> Block {
 
 /// The transceiver's receiver at `baud`: sampling the line as the search's channel of the
 /// rate does.
-fn receiver(baud: Baud) -> EdgeRx {
+pub(super) fn receiver(baud: Baud) -> EdgeRx {
     let schedule = Config::default().search_schedule;
     let r = baud.index();
     EdgeRx::sampled(

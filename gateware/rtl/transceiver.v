@@ -1,0 +1,444 @@
+// The transceiver's receive path: dp_phy::transceiver::Transceiver's twin
+// (crates/dp-phy/src/transceiver.rs), its tick() clock for clock, the transmitter aside (next).
+//
+// The line (rx_i) goes through the synchroniser to the search, which samples it at every rate;
+// held_q keeps it as each rate last sampled it (the model's AutoBaudQ::held). The receiver, its
+// idle line (rate_idle, a copy for the rate heard and one for the lock a trial falls back to),
+// the delimiter and the baud watchdog work on the rate heard; the state registers are the
+// model's: searching, trial or locked, the rate, the fallback, trial_since, last_end, and the
+// detection's character for the next clock (the model's `detected`).
+//
+// One clock runs in the model's order, each stage's decisions taken from the one before it:
+//   1. The character decided on the last clock (edge_rx's registers) or detected goes to the
+//      delimiter; its telegram confirms a trial (locked), or a failed trial takes its lock back
+//      (the receiver and idle line of the lock from this clock on: edge_rx's hand-over without
+//      a detection, rate_idle's restore) or searches again. *_m: the state after it.
+//   2. The idle clocks before a fall at the rate heard.
+//   3. The search, told the rate heard; a detection at another rate (not of the trial's own
+//      delimiter) starts a trial: the receiver handed over, the idle line loaded from the
+//      detecting channel, the lock kept as the fallback.
+//   4. Otherwise the receiver on the line at its rate; with no character under way, the
+//      delimiter's idle check, whose gap ends a trial as in 1 (the lock's receiver starts on
+//      the next clock: fresh_q).
+//   5. The baud watchdog, between telegrams: its expiry searches again.
+// A reset of the delimiter or a rate's figures for it (use_rate) takes effect after its
+// character and its idle check, as the model's calls come; the watchdog's commands of the
+// clock come in order, the last one standing.
+//
+// The rates' figures (the receiver's, the glitch, TSYN and the gap in clocks, the detection's
+// sample period and stop bit's end) come from transceiver_rates.svh, written from the model.
+`default_nettype none
+
+module transceiver #(
+  parameter int PhaseWidth = 7,
+  parameter int PendWidth  = 12
+) (
+  input  wire        clk_i,
+  input  wire        rst_ni,
+  input  wire        rx_i,
+  // The baud state (0 searching, 1 trial, 2 locked), its rate (an index into Baud::ALL, 9.6k
+  // first; 0 while searching) and the lock a trial falls back to.
+  output wire [1:0]  state_o,
+  output wire [3:0]  rate_o,
+  output wire        fallback_valid_o,
+  output wire [3:0]  fallback_o,
+  // A telegram delivered on this clock: its status (delimiter.v's code), length and end tick;
+  // its bytes went out on wr_* as they came.
+  output wire        deliver_o,
+  output wire [3:0]  status_o,
+  output wire [7:0]  len_o,
+  output wire [31:0] end_o,
+  output wire        wr_o,
+  output wire [7:0]  wr_addr_o,
+  output wire [7:0]  wr_data_o,
+  // The model's probe: a telegram under way, a character under way at the receiver.
+  output wire        in_telegram_o,
+  output wire        rx_active_o
+);
+  localparam int PW = PhaseWidth;
+  localparam int IW = 24;
+  localparam logic [1:0] Searching = 2'd0, Trial = 2'd1, Locked = 2'd2;
+  localparam logic [7:0] SC = 8'hE5;
+  localparam logic [3:0] StGood = 4'd0;
+
+`include "transceiver_rates.svh"
+
+  // The idle clocks from `since` to `now`: 0 if `since` comes later, saturating at 24 bits.
+  function automatic logic [IW-1:0] idle_since(input logic [31:0] now, since);
+    logic [31:0] diff;
+    diff = now - since;
+    if (diff[31]) idle_since = '0;
+    else if (diff[31:IW] != '0) idle_since = '1;
+    else idle_since = diff[IW-1:0];
+  endfunction
+
+  // The later of two ticks (within 2^31 of each other).
+  function automatic logic [31:0] later(input logic [31:0] a, b);
+    later = $signed(a - b) < 0 ? b : a;
+  endfunction
+
+  // ---- Registers ----
+  logic [31:0] now_q;
+  logic [1:0]  state_q, state_d;
+  logic [3:0]  rate_q, rate_d;
+  logic        fb_valid_q, fb_valid_d;
+  logic [3:0]  fb_rate_q, fb_rate_d;
+  logic [31:0] trial_since_q, trial_since_d;
+  logic [31:0] last_end_q, last_end_d;
+  logic        det_q, det_d;
+  logic [7:0]  det_byte_q, det_byte_d;
+  logic [31:0] det_end_q, det_end_d;
+  logic        fresh_q, fresh_d;
+  logic [9:0]  held_q, held_d;
+
+  // ---- The synchroniser and the search ----
+  logic level, fell_unused, rose_unused;
+  line_sync #(.FilterLen(0)) u_sync (
+    .clk_i, .rst_ni, .line_i(rx_i), .level_o(level), .fell_o(fell_unused), .rose_o(rose_unused)
+  );
+
+  logic        rx_on_m;
+  logic [3:0]  rate_m;
+  logic        s_valid, s_detect;
+  logic [3:0]  s_rate;
+  logic [7:0]  s_byte;
+  logic [1:0]  s_reject_unused;
+  logic [15:0] s_age;
+  logic [PendWidth-1:0] s_pending_left;
+  wire  [9:0]  samples, measuring_unused;
+  autobaud #(.Oversampled(1), .PendWidth(PendWidth)) u_search (
+    .clk_i, .rst_ni, .level_i(level), .heard_valid_i(rx_on_m), .heard_i(rate_m),
+    .valid_o(s_valid), .detect_o(s_detect), .rate_o(s_rate), .byte_o(s_byte),
+    .reject_code_o(s_reject_unused), .start_age_o(s_age), .pending_left_o(s_pending_left),
+    .samples_o(samples), .measuring_o(measuring_unused)
+  );
+
+  // Each rate's line as sampled on this clock, and its change there.
+  logic [9:0] changed;
+  always_comb begin
+    for (int r = 0; r < 10; r++) begin
+      held_d[r]  = samples[r] ? level : held_q[r];
+      changed[r] = samples[r] && level != held_q[r];
+    end
+  end
+
+  // ---- Blocks driven below ----
+  // The receiver.
+  logic [3:0]  rx_rate;
+  logic        rx_hand_over;
+  logic [IW-1:0] rx_hand_over_idle, idle_before;
+  logic        rx_char;
+  logic [7:0]  rx_byte;
+  logic [2:0]  rx_error;
+  logic [31:0] rx_start_unused, rx_end;
+  logic [IW-1:0] rx_char_idle;
+  logic        rx_active, rx_active_next, rx_deciding;
+  logic [17:0] rx_deadline_unused, rx_next_from_unused;
+  logic [1:0]  rx_stage_unused;
+  logic        rx_next_active_unused, rx_next_from_valid_unused;
+  logic [RateReaderWidth-1:0] reader;
+  assign reader = rate_reader(rx_rate);
+  edge_rx #(.PhaseWidth(PW)) u_rx (
+    .clk_i, .rst_ni, .now_i(now_q),
+    .inc_i(reader[RdInc +: PW]), .two_inc_i(reader[RdTwoInc +: PW + 1]),
+    .modulo_i(reader[RdModulo +: PW]), .quarter_i(reader[RdQuarter +: PW]),
+    .three_quarters_i(reader[RdThreeQuarters +: PW]),
+    .half_less_inc_i(reader[RdHalfLessInc +: PW]),
+    .modulo_less_inc_i(reader[RdModuloLessInc +: PW]),
+    .modulo_less_two_inc_i(reader[RdModuloLessTwoInc +: PW]),
+    .start_end_i(reader[RdStartEnd +: 16]), .stop_middle_i(reader[RdStopMiddle +: 16]),
+    .stop_end_i(reader[RdStopEnd +: 16]),
+    .step_i(samples[rx_rate]), .level_i(held_d[rx_rate]), .edge_i(changed[rx_rate]),
+    .idle_before_i(idle_before), .hand_over_i(rx_hand_over),
+    .hand_over_idle_i(rx_hand_over_idle), .clear_i(1'b0),
+    .char_o(rx_char), .char_byte_o(rx_byte), .char_error_o(rx_error),
+    .char_start_o(rx_start_unused), .char_end_o(rx_end), .char_idle_before_o(rx_char_idle),
+    .active_o(rx_active), .active_next_o(rx_active_next), .deciding_o(rx_deciding),
+    .deadline_o(rx_deadline_unused), .stage_o(rx_stage_unused),
+    .next_active_o(rx_next_active_unused), .next_from_valid_o(rx_next_from_valid_unused),
+    .next_from_o(rx_next_from_unused)
+  );
+
+  // The idle line at the rate heard, and at the lock during a trial from it.
+  logic        idle_restore, idle_load, fb_load;
+  logic [PendWidth-1:0] idle_load_left;
+  logic [31:0] idle_load_since, idle_load_before;
+  logic [PendWidth-1:0] idle_left_unused, idle_left_e, fb_left, fb_left_e;
+  logic [31:0] idle_since_q, idle_since_e, idle_before_unused, idle_before_e;
+  logic [31:0] fb_since_q, fb_since_e, fb_before_q, fb_before_e;
+  rate_idle #(.PendWidth(PendWidth)) u_idle (
+    .clk_i, .rst_ni, .now_i(now_q), .glitch_i(rate_glitch(rate_m)),
+    .sample_i(rx_on_m && samples[rate_m]), .edge_i(changed[rate_m]), .level_i(level),
+    .restore_i(idle_restore), .restore_cancel_left_i(fb_left),
+    .restore_high_since_i(fb_since_q), .restore_high_before_i(fb_before_q),
+    .load_i(idle_load), .load_cancel_left_i(idle_load_left),
+    .load_high_since_i(idle_load_since), .load_high_before_i(idle_load_before),
+    .cancel_left_o(idle_left_unused), .high_since_o(idle_since_q),
+    .high_before_o(idle_before_unused),
+    .cancel_left_e_o(idle_left_e), .high_since_e_o(idle_since_e),
+    .high_before_e_o(idle_before_e)
+  );
+  logic fb_live;
+  rate_idle #(.PendWidth(PendWidth)) u_fallback_idle (
+    .clk_i, .rst_ni, .now_i(now_q), .glitch_i(rate_glitch(fb_rate_q)),
+    .sample_i(fb_live && samples[fb_rate_q]), .edge_i(changed[fb_rate_q]), .level_i(level),
+    .restore_i(1'b0), .restore_cancel_left_i('0), .restore_high_since_i('0),
+    .restore_high_before_i('0),
+    .load_i(fb_load), .load_cancel_left_i(idle_left_e), .load_high_since_i(idle_since_e),
+    .load_high_before_i(idle_before_e),
+    .cancel_left_o(fb_left), .high_since_o(fb_since_q), .high_before_o(fb_before_q),
+    .cancel_left_e_o(fb_left_e), .high_since_e_o(fb_since_e), .high_before_e_o(fb_before_e)
+  );
+
+  // The delimiter.
+  logic        ch_valid, det_char;
+  logic        dl_config, dl_reset, dl_idle_check;
+  logic [3:0]  dl_config_rate;
+  logic [IW-1:0] idle_now;
+  logic        dl_char_deliver, dl_deliver, dl_inside, dl_not_synced_unused;
+  logic [3:0]  dl_char_status, dl_status;
+  logic [7:0]  dl_first;
+  delimiter u_delimiter (
+    .clk_i, .rst_ni,
+    .config_i(dl_config), .tsyn_clocks_i(rate_tsyn(dl_config_rate)),
+    .gap_clocks_i(rate_gap(dl_config_rate)), .reset_i(dl_reset),
+    .char_i(ch_valid), .char_byte_i(det_char ? det_byte_q : rx_byte),
+    .char_error_i(det_char ? 3'd0 : rx_error),
+    .char_idle_before_i(det_char ? {IW{1'b1}} : rx_char_idle),
+    .char_end_i(det_char ? det_end_q : rx_end),
+    .idle_check_i(dl_idle_check), .idle_i(idle_now), .now_i(now_q),
+    .char_deliver_o(dl_char_deliver), .char_status_o(dl_char_status), .first_o(dl_first),
+    .inside_o(dl_inside), .in_telegram_o,
+    .deliver_o(dl_deliver), .not_synced_o(dl_not_synced_unused), .status_o(dl_status),
+    .len_o, .end_o, .wr_o, .wr_addr_o, .wr_data_o
+  );
+
+  // The baud watchdog: 20 ticks of 10 ms.
+  logic wd_start, wd_stop, wd_check, wd_expired, wd_running_unused;
+  logic [23:0] wd_left_unused;
+  watchdog #(.Width(24)) u_watchdog (
+    .clk_i, .rst_ni, .clocks_i(BaudWatchdogClocks), .start_i(wd_start),
+    .start_if_stopped_i(1'b0), .stop_i(wd_stop), .check_i(wd_check),
+    .expired_o(wd_expired), .running_o(wd_running_unused), .left_o(wd_left_unused)
+  );
+
+  // ---- One clock, in the model's order ----
+  // Each stage is an always_comb block of its own that reads only the stages before it and
+  // the blocks they drive, so that no combinational loop appears between the blocks (a stage
+  // later in the clock never feeds an earlier one).
+
+  // 1. The character of the last clock, and what its telegram does.
+  assign det_char = det_q;
+  assign ch_valid = det_q || rx_char;
+  logic [1:0]  state_m;
+  logic        fb_valid_m, restore_m, fresh_m;
+  logic [31:0] last_end_m;
+  logic        wd1_start, wd1_stop, cfg1, rst1;
+  always_comb begin
+    last_end_m = ch_valid ? (det_q ? det_end_q : rx_end) : last_end_q;
+    state_m    = state_q;
+    rate_m     = rate_q;
+    fb_valid_m = fb_valid_q;
+    restore_m  = 1'b0;
+    wd1_start  = 1'b0;
+    wd1_stop   = 1'b0;
+    cfg1       = 1'b0;
+    rst1       = 1'b0;
+    if (dl_char_deliver && dl_char_status == StGood) begin
+      // An SC does not confirm a rate.
+      if (state_q == Trial && dl_first != SC) begin
+        state_m    = Locked;
+        fb_valid_m = 1'b0;
+      end
+      wd1_start = 1'b1;
+    end else if (dl_char_deliver && state_q == Trial) begin
+      if (fb_valid_q) begin
+        // The lock taken back: its receiver and idle line from this clock on.
+        restore_m = 1'b1;
+        rate_m    = fb_rate_q;
+        state_m   = Locked;
+        cfg1      = 1'b1;
+      end else begin
+        state_m  = Searching;
+        wd1_stop = 1'b1;
+        rst1     = 1'b1;
+      end
+      fb_valid_m = 1'b0;
+    end
+    rx_on_m = state_m != Searching;
+    fresh_m = fresh_q || restore_m;
+  end
+
+  // 2. The idle clocks before a fall at the rate heard (a receiver reset before this clock has
+  // nothing under way).
+  always_comb begin
+    idle_before  = (rx_on_m && held_q[rate_m] && !(rx_active && !fresh_m))
+                 ? idle_since(now_q, later(last_end_m, restore_m ? fb_since_q : idle_since_q))
+                 : '0;
+    idle_restore = restore_m;
+    fb_live      = state_m == Trial && fb_valid_m;
+  end
+
+  // 3. The search's detection: a trial at its rate.
+  logic        det, ignored, switched;
+  logic [31:0] det_start, det_end;
+  logic [1:0]  state3;
+  logic [3:0]  rate3;
+  logic        fb_valid3, idle_load3;
+  logic        wd3_start, wd3_stop, cfg3, rst3;
+  logic [3:0]  cfg3_rate;
+  always_comb begin
+    det       = s_valid && s_detect;
+    det_start = now_q - rate_age_clocks(s_rate, s_age);
+    det_end   = det_start + 32'(rate_stop_end(s_rate));
+    // The receiver's own rate, or the trial's own start delimiter read at a slower rate.
+    ignored   = (rx_on_m && rate_m == s_rate)
+             || (state_m == Trial && $signed(det_start - trial_since_q) <= 0);
+    switched  = det && !ignored;
+    state3        = state_m;
+    rate3         = rate_m;
+    fb_valid3     = fb_valid_m;
+    fb_rate_d     = fb_rate_q;
+    trial_since_d = trial_since_q;
+    last_end_d    = last_end_m;
+    det_d         = 1'b0;
+    det_byte_d    = det_byte_q;
+    det_end_d     = det_end_q;
+    fb_load       = 1'b0;
+    idle_load3    = 1'b0;
+    wd3_start     = wd1_start;
+    wd3_stop      = wd1_stop;
+    cfg3          = cfg1;
+    cfg3_rate     = rate_m;
+    rst3          = rst1;
+    rx_rate           = rate_m;
+    rx_hand_over      = !rx_on_m || fresh_m;
+    rx_hand_over_idle = idle_before;
+    if (switched) begin
+      if (state_m == Searching) begin
+        fb_valid3 = 1'b0;
+      end else if (state_m == Locked) begin
+        // The lock is the trial's fallback, with its idle line as this clock leaves it.
+        fb_valid3 = 1'b1;
+        fb_rate_d = rate_m;
+        fb_load   = 1'b1;
+      end
+      state3        = Trial;
+      rate3         = s_rate;
+      trial_since_d = now_q;
+      cfg3          = 1'b1;
+      cfg3_rate     = s_rate;
+      // A trial from a lock keeps the lock's watchdog.
+      if (!fb_valid3) begin
+        wd3_start = 1'b1;
+        wd3_stop  = 1'b0;
+      end
+      idle_load3        = 1'b1;
+      last_end_d        = det_end;
+      det_d             = 1'b1;
+      det_byte_d        = s_byte;
+      det_end_d         = det_end;
+      rx_rate           = s_rate;
+      rx_hand_over      = 1'b1;
+      rx_hand_over_idle = idle_since(now_q, det_end);
+    end
+  end
+
+  // 4. With no character under way at the receiver, the delimiter's idle check.
+  always_comb begin
+    dl_idle_check = rx_on_m && !switched && !rx_active_next && !rx_deciding;
+    idle_now      = held_d[rate_m] ? idle_since(now_q, later(last_end_m, idle_since_e)) : '0;
+  end
+
+  // 5. A gap ends a trial: back to its lock (whose receiver starts on the next clock) or to
+  // searching. Then the watchdog is checked between telegrams.
+  logic [1:0] state5;
+  logic       fb_valid5, fresh5, cfg5, rst5;
+  logic [3:0] cfg5_rate;
+  always_comb begin
+    state5           = state3;
+    rate_d           = rate3;
+    fb_valid5        = fb_valid3;
+    fresh5           = 1'b0;
+    idle_load        = idle_load3;
+    idle_load_left   = s_pending_left;
+    idle_load_since  = det_end;
+    idle_load_before = det_end;
+    wd_start         = wd3_start;
+    wd_stop          = wd3_stop;
+    cfg5             = cfg3;
+    cfg5_rate        = cfg3_rate;
+    rst5             = rst3;
+    if (dl_deliver && !dl_char_deliver && state_m == Trial) begin
+      if (fb_valid_m) begin
+        state5           = Locked;
+        rate_d           = fb_rate_q;
+        fresh5           = 1'b1;
+        idle_load        = 1'b1;
+        idle_load_left   = fb_left_e;
+        idle_load_since  = fb_since_e;
+        idle_load_before = fb_before_e;
+        cfg5             = 1'b1;
+        cfg5_rate        = fb_rate_q;
+      end else begin
+        state5   = Searching;
+        wd_start = 1'b0;
+        wd_stop  = 1'b1;
+        rst5     = 1'b1;
+      end
+      fb_valid5 = 1'b0;
+    end
+    wd_check = rx_on_m && !switched && !rx_deciding && !dl_inside;
+  end
+
+  // The watchdog's expiry searches again.
+  always_comb begin
+    state_d        = wd_expired ? Searching : state5;
+    fb_valid_d     = fb_valid5 && !wd_expired;
+    fresh_d        = fresh5 && !wd_expired;
+    dl_config      = cfg5;
+    dl_config_rate = cfg5_rate;
+    dl_reset       = rst5 || wd_expired;
+  end
+
+  always_ff @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      now_q         <= '0;
+      state_q       <= Searching;
+      rate_q        <= '0;
+      fb_valid_q    <= 1'b0;
+      fb_rate_q     <= '0;
+      trial_since_q <= '0;
+      last_end_q    <= '0;
+      det_q         <= 1'b0;
+      det_byte_q    <= '0;
+      det_end_q     <= '0;
+      fresh_q       <= 1'b0;
+      held_q        <= '1;
+    end else begin
+      now_q         <= now_q + 32'd1;
+      state_q       <= state_d;
+      rate_q        <= rate_d;
+      fb_valid_q    <= fb_valid_d;
+      fb_rate_q     <= fb_rate_d;
+      trial_since_q <= trial_since_d;
+      last_end_q    <= last_end_d;
+      det_q         <= det_d;
+      det_byte_q    <= det_byte_d;
+      det_end_q     <= det_end_d;
+      fresh_q       <= fresh_d;
+      held_q        <= held_d;
+    end
+  end
+
+  assign state_o          = state_q;
+  assign rate_o           = state_q == Searching ? 4'd0 : rate_q;
+  assign fallback_valid_o = fb_valid_q;
+  assign fallback_o       = fb_valid_q ? fb_rate_q : 4'd0;
+  assign deliver_o        = dl_deliver;
+  assign status_o         = dl_status;
+  // The model's receiver is reset at once where this one is on the next clock.
+  assign rx_active_o      = rx_active && !fresh_q && state_q != Searching;
+endmodule
+
+`default_nettype wire

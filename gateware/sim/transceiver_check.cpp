@@ -1,0 +1,76 @@
+// transceiver (the receive path) under the stimulus of crates/rtl-check
+// (`rtl_check::blocks::transceiver`): the line of a baud-sweep case, clock by clock.
+//
+// Records: 'L' u8 level, u32 n (n clocks with the line at level, before the synchroniser).
+// Outputs each clock: bit 0 a telegram delivered on it (read before its edge), then after the
+// edge bit 1 a trial, bit 2 locked, bit 3 a telegram under way, bit 4 a character under way.
+// Events: for each delivery, u8 1, u8 status, u8 len, u32 end, then the telegram's bytes from
+// the RAM; after it, for each change of the baud state, u8 2, u8 state, u8 rate, u8 fallback
+// (0xFF with none).
+#include <memory>
+
+#include "Vtransceiver.h"
+#include "harness.h"
+#include "verilated.h"
+
+namespace {
+using harness::put;
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 4) harness::fail("usage: check <stimulus> <outputs> <events>");
+  harness::Stimulus in(argv[1]);
+  harness::Outputs out(argv[2]);
+  harness::Events events(argv[3]);
+  auto ctx = std::make_unique<VerilatedContext>();
+  auto top = std::make_unique<Vtransceiver>(ctx.get());
+  uint8_t ram[256] = {};
+  uint32_t clock_n = 0;
+  std::vector<uint8_t> last_state = {0, 0, 0xFF};
+  auto clock = [&](uint8_t level) {
+    top->rx_i = level;
+    top->clk_i = 0;
+    top->eval();
+    bool deliver = top->deliver_o;
+    uint8_t status = top->status_o, len = top->len_o;
+    uint32_t end = top->end_o;
+    if (top->wr_o) ram[top->wr_addr_o] = top->wr_data_o;
+    top->clk_i = 1;
+    top->eval();
+    uint8_t state = top->state_o;
+    out.clock(static_cast<uint8_t>(deliver | ((state == 1) << 1) | ((state == 2) << 2) |
+                                   (top->in_telegram_o << 3) | (top->rx_active_o << 4)));
+    if (deliver) {
+      std::vector<uint8_t> payload = {1, status, len};
+      put(payload, end, 4);
+      payload.insert(payload.end(), ram, ram + len);
+      events.record(clock_n, payload);
+    }
+    std::vector<uint8_t> now = {state, static_cast<uint8_t>(top->rate_o),
+                                static_cast<uint8_t>(top->fallback_valid_o ? top->fallback_o
+                                                                           : 0xFF)};
+    if (now != last_state) {
+      std::vector<uint8_t> payload = {2};
+      payload.insert(payload.end(), now.begin(), now.end());
+      events.record(clock_n, payload);
+      last_state = now;
+    }
+    clock_n++;
+  };
+  top->clk_i = 0;
+  top->rx_i = 1;
+  harness::reset(*top);
+  for (int op; (op = in.op()) >= 0;) {
+    switch (op) {
+      case 'L': {
+        uint8_t level = in.u8();
+        for (uint32_t n = in.u32(); n > 0; n--) clock(level);
+        break;
+      }
+      default:
+        harness::fail("unknown record");
+    }
+  }
+  top->final();
+  return 0;
+}

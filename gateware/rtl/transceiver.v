@@ -51,9 +51,12 @@ module transceiver #(
   output wire        wr_o,
   output wire [7:0]  wr_addr_o,
   output wire [7:0]  wr_data_o,
-  // The model's probe: a telegram under way, a character under way at the receiver.
+  // The model's probe: a telegram under way, a character under way at the receiver, and the
+  // line idle at the rate heard since idle_since_o (what TSDR counts from).
   output wire        in_telegram_o,
-  output wire        rx_active_o
+  output wire        rx_active_o,
+  output wire        idle_o,
+  output wire [31:0] idle_since_o
 );
   localparam int PW = PhaseWidth;
   localparam int IW = 24;
@@ -439,6 +442,8 @@ module transceiver #(
   assign status_o         = dl_status;
   // The model's receiver is reset at once where this one is on the next clock.
   assign rx_active_o      = rx_active && !fresh_q && state_q != Searching;
+  assign idle_o           = state_q != Searching && held_q[rate_q] && !rx_active_o && !rx_char;
+  assign idle_since_o     = later(last_end_q, idle_since_q);
 endmodule
 
 `default_nettype wire

@@ -6,7 +6,8 @@
 // edge bit 1 a trial, bit 2 locked, bit 3 a telegram under way, bit 4 a character under way.
 // Events: for each delivery, u8 1, u8 status, u8 len, u32 end, then the telegram's bytes from
 // the RAM; after it, for each change of the baud state, u8 2, u8 state, u8 rate, u8 fallback
-// (0xFF with none).
+// (0xFF with none); after it, for each change of the idle line at the rate heard, u8 3, u8
+// idle, u32 idle_since (0 while not idle).
 #include <memory>
 
 #include "Vtransceiver.h"
@@ -27,6 +28,7 @@ int main(int argc, char** argv) {
   uint8_t ram[256] = {};
   uint32_t clock_n = 0;
   std::vector<uint8_t> last_state = {0, 0, 0xFF};
+  std::vector<uint8_t> last_idle = {3, 0, 0, 0, 0, 0};
   auto clock = [&](uint8_t level) {
     top->rx_i = level;
     top->clk_i = 0;
@@ -54,6 +56,12 @@ int main(int argc, char** argv) {
       payload.insert(payload.end(), now.begin(), now.end());
       events.record(clock_n, payload);
       last_state = now;
+    }
+    std::vector<uint8_t> idle = {3, static_cast<uint8_t>(top->idle_o)};
+    put(idle, top->idle_o ? top->idle_since_o : 0, 4);
+    if (idle != last_idle) {
+      events.record(clock_n, idle);
+      last_idle = idle;
     }
     clock_n++;
   };

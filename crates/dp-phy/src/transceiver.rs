@@ -129,6 +129,9 @@ pub struct Probe {
     pub driver_enable: bool,
     /// The lock a trial returns to if it fails.
     pub fallback: Option<Baud>,
+    /// The tick the line has been idle since at the receiver's rate (what TSDR counts from);
+    /// `None` while it is not idle.
+    pub idle_since: Option<Tick>,
 }
 
 /// The transceiver block.
@@ -267,6 +270,7 @@ impl Transceiver {
             in_telegram: self.delimiter.inside(),
             driver_enable: self.drive().is_some(),
             fallback: self.fallback,
+            idle_since: self.idle_since(),
         }
     }
 
@@ -309,6 +313,11 @@ impl Transceiver {
     /// glitches aside, since the last character ended. `now` while it is not idle (low, or a
     /// character under way).
     fn quiet_since(&self) -> Tick {
+        self.idle_since().unwrap_or(self.now)
+    }
+
+    /// As [`quiet_since`](Self::quiet_since), `None` while the line is not idle.
+    fn idle_since(&self) -> Option<Tick> {
         match self.heard() {
             Some(b)
                 if self.search_q.held[b.index()]
@@ -322,9 +331,9 @@ impl Transceiver {
                     "the receiver's idle line is not its rate's channel's at {}",
                     self.now
                 );
-                since
+                Some(since)
             }
-            _ => self.now,
+            _ => None,
         }
     }
 

@@ -3,8 +3,9 @@
 //! fallback registers) against `dp_phy::Transceiver`, on the baud sweep's cases
 //! ([`dp_phy::sweep`]): the line each case puts on the bus, clock by clock, with the model run
 //! strict. Compared every clock: a delivery, the baud state, a telegram and a character under
-//! way; and each delivery (status, length, end tick, bytes) and each change of the baud state
-//! (rate, fallback) as events.
+//! way; and each delivery (status, length, end tick, bytes), each change of the baud state
+//! (rate, fallback) and of the idle line at the rate heard (idle since when: what TSDR counts
+//! from) as events.
 //!
 //! The rates' figures are the model's: [`rates_svh`] writes `gateware/rtl/transceiver_rates.svh`
 //! from the model's search, receiver and configuration, and a test holds the file equal to it.
@@ -138,6 +139,7 @@ struct Recorder {
     events: Vec<Event>,
     clock: u32,
     state: [u8; 3],
+    idle_since: Option<u32>,
 }
 
 impl Recorder {
@@ -192,6 +194,16 @@ impl Recorder {
                 payload,
             });
             self.state = now;
+        }
+        let idle_since = probe.idle_since.map(|t| t as u32);
+        if idle_since != self.idle_since {
+            let mut payload = vec![3, u8::from(idle_since.is_some())];
+            payload.extend(idle_since.unwrap_or(0).to_le_bytes());
+            self.events.push(Event {
+                clock: self.clock,
+                payload,
+            });
+            self.idle_since = idle_since;
         }
         self.clock += 1;
     }

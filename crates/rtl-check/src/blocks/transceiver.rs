@@ -17,7 +17,12 @@ use dp_consts::Baud;
 use dp_phy::autobaud::AutoBaud;
 use dp_phy::sweep::{self, SweepCase};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
+use dp_phy::bus::FaultInjector;
+use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Testbench};
+use dp_phy::transceiver::Stats;
 use dp_phy::{BaudState, BitTiming, Config, Transceiver};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use std::cell::RefCell;
 use std::fmt::Write as _;
 use std::rc::Rc;
@@ -217,6 +222,30 @@ impl Recorder {
     }
 }
 
+/// A bench whose every clock `recorder` takes.
+fn observed_bench(recorder: &Rc<RefCell<Recorder>>, timing: BitTiming) -> Testbench {
+    let mut tb = Testbench::new(Config::default(), timing, FaultInjector::none());
+    let observer = recorder.clone();
+    tb.observe(Box::new(move |line, adapter, out| {
+        observer.borrow_mut().clock(line, adapter, out.telegram)
+    }));
+    tb
+}
+
+fn finish(recorder: Rc<RefCell<Recorder>>, name: String) -> Case {
+    let mut r = Rc::try_unwrap(recorder)
+        .ok()
+        .expect("the bench is gone")
+        .into_inner();
+    r.flush();
+    Case {
+        name,
+        stimulus: r.stimulus,
+        model: r.trace,
+        model_events: r.events,
+    }
+}
+
 /// One sweep case, strict, with what the adapter saw and did at every clock.
 pub fn sweep_case(case: &SweepCase) -> Case {
     let recorder = Rc::new(RefCell::new(Recorder::new()));
@@ -227,20 +256,85 @@ pub fn sweep_case(case: &SweepCase) -> Case {
         }))
     });
     drop(run);
-    let mut r = Rc::try_unwrap(recorder)
-        .ok()
-        .expect("the bench is gone")
-        .into_inner();
-    r.flush();
-    Case {
-        name: format!("transceiver-{case}"),
-        stimulus: r.stimulus,
-        model: r.trace,
-        model_events: r.events,
-    }
+    finish(recorder, format!("transceiver-{case}"))
 }
 
-/// The sweep's cases (`quick`: a few of its quick set, which fit CI's time).
+/// How a trial that [`trials_case`] starts ends.
+#[derive(Clone, Copy, Debug)]
+enum TrialEnd {
+    /// Its telegram complete with a bad FCS: the delivery of its last character ends it.
+    BadFcs,
+    /// Its telegram cut short: the idle check's gap ends it.
+    Gap,
+}
+
+/// The paths the sweep seldom takes: locked at `lock`, a start delimiter at `other` starts a
+/// trial from the lock that `end` ends (the lock taken back, its receiver and idle line where
+/// they were), then the lock's traffic again; then the same at `other` from searching (the
+/// search again); then `lock`'s traffic until the baud watchdog expires, and once more.
+/// Returns the case and the model's counters at its end.
+fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stats) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let at = |b: Baud| BitTiming::new(DEFAULT_CLOCK_HZ, b, rng_ppm(seed, b));
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let mut tb = observed_bench(&recorder, at(lock));
+    tb.run_until(rng.gen_range(0..500), false);
+    let failing = |rng: &mut ChaCha8Rng| {
+        let mut t = random_telegram(rng, Kind::Sd1, 3);
+        match end {
+            TrialEnd::BadFcs => {
+                let fcs = t.len() - 2;
+                t[fcs] ^= 0x5A;
+            }
+            TrialEnd::Gap => t.truncate(3),
+        }
+        t
+    };
+    let polls = |tb: &mut Testbench, rng: &mut ChaCha8Rng, n: usize| {
+        for t in poll_sequence(rng, n) {
+            tb.send(40, &t);
+        }
+        tb.run_out(40, false);
+    };
+    for round in 0..2 {
+        polls(&mut tb, &mut rng, 2);
+        tb.set_master_timing(at(other));
+        tb.send(40, &failing(&mut rng));
+        tb.run_out(if round == 0 { 20 } else { 60 }, false);
+        tb.set_master_timing(at(lock));
+    }
+    polls(&mut tb, &mut rng, 2);
+    // The baud watchdog: the line idle past it, then the lock's traffic found again.
+    let watchdog = u64::from(Config::default().baud_watchdog_10ms) * DEFAULT_CLOCK_HZ as u64 / 100;
+    tb.run_until(tb.now() + watchdog + 1000, false);
+    tb.set_master_timing(at(other));
+    tb.send(40, &failing(&mut rng));
+    tb.run_out(40, false);
+    tb.set_master_timing(at(lock));
+    polls(&mut tb, &mut rng, 2);
+    let stats = tb.adapter.stats();
+    drop(tb);
+    let case = finish(
+        recorder,
+        format!("transceiver-trials-{lock}-then-{other}-{end:?}"),
+    );
+    (case, stats)
+}
+
+/// A master's clock off by up to 3,000 ppm, fixed by the seed and the rate.
+fn rng_ppm(seed: u64, b: Baud) -> i32 {
+    ChaCha8Rng::seed_from_u64(seed ^ (b.index() as u64) << 32).gen_range(-3000..=3000)
+}
+
+/// Rate pairs for [`trials_case`]: far apart both ways, and neighbours.
+const TRIAL_PAIRS: [(Baud, Baud); 4] = [
+    (Baud::B12000000, Baud::B187500),
+    (Baud::B500000, Baud::B1500000),
+    (Baud::B93750, Baud::B6000000),
+    (Baud::B3000000, Baud::B45450),
+];
+
+/// The sweep's cases (`quick`: a few of its quick set, which fit CI's time) and the trials'.
 pub fn transceiver_cases(quick: bool) -> Vec<Case> {
     let all = sweep::cases(quick);
     let chosen: Vec<&SweepCase> = if quick {
@@ -248,12 +342,42 @@ pub fn transceiver_cases(quick: bool) -> Vec<Case> {
     } else {
         all.iter().collect()
     };
-    chosen.into_iter().map(sweep_case).collect()
+    let mut cases: Vec<Case> = chosen.into_iter().map(sweep_case).collect();
+    cases.extend(trials_cases(quick).into_iter().map(|(c, _)| c));
+    cases
+}
+
+fn trials_cases(quick: bool) -> Vec<(Case, Stats)> {
+    let pairs = if quick { &TRIAL_PAIRS[..2] } else { &TRIAL_PAIRS[..] };
+    let mut out = Vec::new();
+    for (i, &(lock, other)) in pairs.iter().enumerate() {
+        for end in [TrialEnd::BadFcs, TrialEnd::Gap] {
+            out.push(trials_case(lock, other, end, 100 + i as u64));
+        }
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The quick set takes the paths the sweep seldom does: trials from a lock that fail and
+    /// take it back (by a bad FCS and by a gap), trials from searching that fail, and the
+    /// baud watchdog's expiry.
+    #[test]
+    fn the_quick_trials_take_the_rare_paths() {
+        for (case, stats) in trials_cases(true) {
+            assert!(stats.relock_trials_failed >= 2, "{}: {stats:?}", case.name);
+            assert!(stats.watchdog_expiries >= 1, "{}: {stats:?}", case.name);
+            // Searching, a failed trial, then the lock's traffic found again.
+            assert!(
+                stats.trials >= stats.relock_trials_failed + 3,
+                "{}: {stats:?}",
+                case.name
+            );
+        }
+    }
 
     /// The rates' figures in the gateware are the model's. After a change of the model's
     /// figures, `RTL_CHECK_WRITE_SVH=1 cargo test -p rtl-check` writes the file anew.

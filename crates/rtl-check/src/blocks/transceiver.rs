@@ -15,10 +15,10 @@ use super::status_code;
 use crate::{Block, Case, Event, Trace};
 use dp_consts::Baud;
 use dp_phy::autobaud::AutoBaud;
+use dp_phy::bus::{FaultInjector, FaultWindow, LineFault};
 use dp_phy::sweep::{self, SweepCase};
-use dp_phy::timing::DEFAULT_CLOCK_HZ;
-use dp_phy::bus::FaultInjector;
 use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Testbench};
+use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::transceiver::Stats;
 use dp_phy::{BaudState, BitTiming, Config, Transceiver};
 use rand::{Rng, SeedableRng};
@@ -26,7 +26,6 @@ use rand_chacha::ChaCha8Rng;
 use std::cell::RefCell;
 use std::fmt::Write as _;
 use std::rc::Rc;
-
 
 pub fn transceiver() -> Block {
     Block {
@@ -51,7 +50,8 @@ pub fn transceiver() -> Block {
     }
 }
 
-const SVH_HEADER: &str = "// Written by crates/rtl-check (`blocks::transceiver`) from the model at 48 MHz: each\n\
+const SVH_HEADER: &str =
+    "// Written by crates/rtl-check (`blocks::transceiver`) from the model at 48 MHz: each\n\
     // rate's receiver (EdgeRx::sampled, its figures in samples), its search channel's sample\n\
     // period, glitch (samples) and stop bit's end (clocks), TSYN and the gap in clocks\n\
     // (Transceiver::use_rate), and the baud watchdog. A test holds this file equal to the\n\
@@ -88,30 +88,28 @@ pub fn rates_svh() -> String {
         for (i, b) in Baud::ALL.iter().enumerate() {
             let _ = writeln!(s, "      4'd{i}: {name} = {}; // {b}", row(*b));
         }
-        let _ = write!(s, "      default: {name} = '0;\n    endcase\n  endfunction\n");
+        let _ = write!(
+            s,
+            "      default: {name} = '0;\n    endcase\n  endfunction\n"
+        );
     };
-    function(
-        "rate_reader",
-        "logic [RateReaderWidth-1:0]",
-        "",
-        &|b| {
-            let rx = receiver(b);
-            let r = rx.reader();
-            let [start_end, stop_middle, stop_end] = rx.offsets();
-            format!(
-                "{{16'd{stop_end}, 16'd{stop_middle}, 16'd{start_end}, PW'({}), PW'({}), PW'({}), \
+    function("rate_reader", "logic [RateReaderWidth-1:0]", "", &|b| {
+        let rx = receiver(b);
+        let r = rx.reader();
+        let [start_end, stop_middle, stop_end] = rx.offsets();
+        format!(
+            "{{16'd{stop_end}, 16'd{stop_middle}, 16'd{start_end}, PW'({}), PW'({}), PW'({}), \
                  PW'({}), PW'({}), PW'({}), (PW + 1)'({}), PW'({})}}",
-                r.modulo_less_two_inc,
-                r.modulo_less_inc,
-                r.half_less_inc,
-                r.three_quarters,
-                r.quarter,
-                r.modulo,
-                r.two_inc,
-                r.inc
-            )
-        },
-    );
+            r.modulo_less_two_inc,
+            r.modulo_less_inc,
+            r.half_less_inc,
+            r.three_quarters,
+            r.quarter,
+            r.modulo,
+            r.two_inc,
+            r.inc
+        )
+    });
     function(
         "rate_age_clocks",
         "logic [31:0]",
@@ -283,12 +281,26 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
         let mut t = random_telegram(rng, Kind::Sd1, 3);
         match end {
             TrialEnd::BadFcs => {
+                // Characters follow at once: one is under way when the trial fails.
                 let fcs = t.len() - 2;
                 t[fcs] ^= 0x5A;
+                t.extend([rng.gen::<u8>(), rng.gen::<u8>()]);
             }
             TrialEnd::Gap => t.truncate(3),
         }
         t
+    };
+    // After a cut telegram, a low pulse of two bits at the lock's rate, which the lock's idle
+    // line (kept during the trial) takes: the lock goes on from it when the trial fails.
+    let pulse = |tb: &mut Testbench| {
+        tb.run_out(0, false);
+        if let TrialEnd::Gap = end {
+            tb.bus.faults.add(FaultWindow {
+                start: tb.now() + 1,
+                len: 2 * BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, lock).clocks_per_bit(),
+                fault: LineFault::Stuck(false),
+            });
+        }
     };
     let polls = |tb: &mut Testbench, rng: &mut ChaCha8Rng, n: usize| {
         for t in poll_sequence(rng, n) {
@@ -300,6 +312,7 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
         polls(&mut tb, &mut rng, 2);
         tb.set_master_timing(at(other));
         tb.send(40, &failing(&mut rng));
+        pulse(&mut tb);
         tb.run_out(if round == 0 { 20 } else { 60 }, false);
         tb.set_master_timing(at(lock));
     }
@@ -348,7 +361,11 @@ pub fn transceiver_cases(quick: bool) -> Vec<Case> {
 }
 
 fn trials_cases(quick: bool) -> Vec<(Case, Stats)> {
-    let pairs = if quick { &TRIAL_PAIRS[..2] } else { &TRIAL_PAIRS[..] };
+    let pairs = if quick {
+        &TRIAL_PAIRS[..2]
+    } else {
+        &TRIAL_PAIRS[..]
+    };
     let mut out = Vec::new();
     for (i, &(lock, other)) in pairs.iter().enumerate() {
         for end in [TrialEnd::BadFcs, TrialEnd::Gap] {

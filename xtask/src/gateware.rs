@@ -8,8 +8,9 @@
 //! tool fails, the search does not fit, or nextpnr's Fmax is under the clock. The receiver is
 //! placed and routed alone too, in a wrapper that registers its outputs
 //! (`gateware/fit/edge_rx_fit.v`), and beside the search (`search_and_receiver_fit.v`), and
-//! their cells and Fmax printed: figures to work on, not yet a gate. There is no top module yet (issue 27), so no bitstream: its last line says so, with
-//! the search's figures.
+//! their cells and Fmax printed: figures to work on, not yet a gate; so is the receive path's
+//! top (`gateware/rtl/transceiver.v`). The top has no transmitter or pins yet (issue 27), so
+//! no bitstream: its last line says so, with the search's and the top's figures.
 //! The tools are installed where missing: into a virtual environment under `target/yowasp`
 //! (pip, pinned versions), or the error says which command to run.
 
@@ -74,6 +75,7 @@ pub fn run(args: &[String]) -> Result<()> {
         blocks::uart_tx(false),
         blocks::watchdog(blocks::baud_watchdog_width()),
         blocks::watchdog(blocks::dp_watchdog_width()),
+        blocks::transceiver(),
     ];
     for block in &builds {
         let cells = synthesise(&tools, block, &root)?;
@@ -133,8 +135,17 @@ pub fn run(args: &[String]) -> Result<()> {
         pair_used * 100 / total.max(1),
         if pair_fmax < clock_mhz { " (under the clock: issue 27)" } else { "" }
     );
+    // The receive path's top: every block above but the transmitter, with the state
+    // registers between them, in one clock as the model's tick has it.
+    let top = blocks::transceiver();
+    let (top_used, _, top_fmax) = place_and_route(&tools, &top, &root, true)?;
     println!(
-        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: no top module yet)",
+        "  the receive path's top on the part (gateware/rtl/transceiver.v): {top_used}/{total} logic cells ({}%), Fmax {top_fmax:.1} MHz{}",
+        top_used * 100 / total.max(1),
+        if top_fmax < clock_mhz { " (under the clock: issue 27, its stages one clock)" } else { "" }
+    );
+    println!(
+        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} rx_top_cells={top_used}/{total} rx_top_fmax_mhz={top_fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: the top has no transmitter, pins or timing yet)",
         fpga.part
     );
     if total != u64::from(fpga.logic_cells) {

@@ -40,7 +40,7 @@ fn clocks_to_sample(now: u64, period: u64, phase: u64) -> u64 {
 
 /// The transceiver's blocks in the order the signal meets them, and whether the gateware has
 /// them yet (README "Gateware").
-pub const TRANSCEIVER_BLOCKS: [(&str, bool); 9] = [
+pub const TRANSCEIVER_BLOCKS: [(&str, bool); 10] = [
     ("line_sync (synchroniser)", true),
     ("autobaud", true),
     ("edge_rx", true),
@@ -48,8 +48,9 @@ pub const TRANSCEIVER_BLOCKS: [(&str, bool); 9] = [
     ("delimiter", true),
     ("uart_tx (min TSDR, driver enable)", true),
     ("watchdogs (baud, DP)", true),
+    ("top: receive path (transceiver.v)", true),
+    ("top: transmitter, pins", false),
     ("responder", false),
-    ("top", false),
 ];
 
 /// The transmitter as the transceiver builds it.

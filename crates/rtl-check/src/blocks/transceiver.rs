@@ -244,6 +244,16 @@ fn finish(recorder: Rc<RefCell<Recorder>>, name: String) -> Case {
     }
 }
 
+/// A strict run of a bench with a master at `timing`, which `drive` drives, recorded as a
+/// case of the top (phy-bench's workload, for one).
+pub fn bench_case(name: String, timing: BitTiming, drive: impl FnOnce(&mut Testbench)) -> Case {
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let mut tb = observed_bench(&recorder, timing);
+    drive(&mut tb);
+    drop(tb);
+    finish(recorder, name)
+}
+
 /// One sweep case, strict, with what the adapter saw and did at every clock.
 pub fn sweep_case(case: &SweepCase) -> Case {
     let recorder = Rc::new(RefCell::new(Recorder::new()));

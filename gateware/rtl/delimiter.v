@@ -98,8 +98,8 @@ module delimiter (
     fcs_d        = fcs_q;
     fcs_ok_d     = fcs_ok_q;
     char_deliver_o = 1'b0;
-    not_synced_o = 1'b0;
-    char_status_o = StGood;
+    not_synced_o   = 1'b0;
+    char_status_o  = StGood;
     char_end     = '0;
     wr_o         = 1'b0;
     wr_addr_o    = len_q;
@@ -113,105 +113,102 @@ module delimiter (
     has_fcs      = 1'b0;
     in_body      = 1'b0;
 
-    begin
-      if (char_i) begin
-        if (inside_q) begin
-          if (char_idle_before_i > gap_q) begin
-            ends     = 1'b1;
-            char_status_o = StGap;
-          end else begin
-            appending = 1'b1;
-          end
-        end else if (char_idle_before_i < tsyn_q) begin
-          not_synced_o = 1'b1;
+    if (char_i) begin
+      if (inside_q) begin
+        if (char_idle_before_i > gap_q) begin
+          ends     = 1'b1;
+          char_status_o = StGap;
         end else begin
-          len_base = '0;
-          len_d    = '0;
-          inside_c = 1'b1;
-          fcs_d    = '0;
-          fcs_ok_d = 1'b0;
-          if (char_error_i != 3'd0) begin
-            ends     = 1'b1;
-            char_status_o = {1'b0, char_error_i};
-          end else begin
-            appending = 1'b1;
-            case (char_byte_i)
-              SD1:     expect_base = 8'd6;
-              SD2:     expect_base = 8'd0;
-              SD3:     expect_base = 8'd14;
-              SD4:     expect_base = 8'd3;
-              SC:      expect_base = 8'd1;
-              default: begin
-                // Not a start delimiter: kept as the telegram, and refused.
-                appending = 1'b0;
-                wr_o      = 1'b1;
-                wr_addr_o = 8'd0;
-                len_d     = 8'd1;
-                ends     = 1'b1;
-                char_status_o = StBadDelimiter;
-              end
-            endcase
-            expect_d = expect_base;
-          end
+          appending = 1'b1;
         end
-      end
-
-      if (appending) begin
+      end else if (char_idle_before_i < tsyn_q) begin
+        not_synced_o = 1'b1;
+      end else begin
+        len_base = '0;
+        len_d    = '0;
+        inside_c = 1'b1;
+        fcs_d    = '0;
+        fcs_ok_d = 1'b0;
         if (char_error_i != 3'd0) begin
           ends     = 1'b1;
           char_status_o = {1'b0, char_error_i};
         end else begin
-          wr_o      = 1'b1;
-          wr_addr_o = len_base;
-          len_d     = len_base + 1'b1;
-          first_now = (len_base == 8'd0) ? char_byte_i : first_q;
-          first_d   = first_now;
-          // The FCS: SD1 and SD3 sum bytes 1 .. expect-3, SD2 bytes 4 .. expect-3; the byte at
-          // expect-2 is the FCS, at expect-1 the ED.
-          has_fcs   = first_now == SD1 || first_now == SD2 || first_now == SD3;
-          index_fcs = expect_base - 8'd2;
-          in_body   = has_fcs && expect_base != 8'd0 && len_base < index_fcs
-                      && len_base >= ((first_now == SD2) ? 8'd4 : 8'd1);
-          if (in_body) fcs_d = fcs_q + char_byte_i;
-          if (has_fcs && expect_base != 8'd0 && len_base == index_fcs) begin
-            fcs_ok_d = char_byte_i == fcs_q;
+          appending = 1'b1;
+          case (char_byte_i)
+            SD1:     expect_base = 8'd6;
+            SD2:     expect_base = 8'd0;
+            SD3:     expect_base = 8'd14;
+            SD4:     expect_base = 8'd3;
+            SC:      expect_base = 8'd1;
+            default: begin
+              // Not a start delimiter: kept as the telegram, and refused.
+              appending = 1'b0;
+              wr_o      = 1'b1;
+              wr_addr_o = 8'd0;
+              len_d     = 8'd1;
+              ends     = 1'b1;
+              char_status_o = StBadDelimiter;
+            end
+          endcase
+          expect_d = expect_base;
+        end
+      end
+    end
+
+    if (appending) begin
+      if (char_error_i != 3'd0) begin
+        ends     = 1'b1;
+        char_status_o = {1'b0, char_error_i};
+      end else begin
+        wr_o      = 1'b1;
+        wr_addr_o = len_base;
+        len_d     = len_base + 1'b1;
+        first_now = (len_base == 8'd0) ? char_byte_i : first_q;
+        first_d   = first_now;
+        // The FCS: SD1 and SD3 sum bytes 1 .. expect-3, SD2 bytes 4 .. expect-3; the byte at
+        // expect-2 is the FCS, at expect-1 the ED.
+        has_fcs   = first_now == SD1 || first_now == SD2 || first_now == SD3;
+        index_fcs = expect_base - 8'd2;
+        in_body   = has_fcs && expect_base != 8'd0 && len_base < index_fcs
+                    && len_base >= ((first_now == SD2) ? 8'd4 : 8'd1);
+        if (in_body) fcs_d = fcs_q + char_byte_i;
+        if (has_fcs && expect_base != 8'd0 && len_base == index_fcs) begin
+          fcs_ok_d = char_byte_i == fcs_q;
+        end
+        if (first_now == SD2 && len_base == 8'd1
+            && (char_byte_i < 8'd4 || char_byte_i > 8'd249)) begin
+          ends     = 1'b1;
+          char_status_o = StBadLength;
+        end else if (first_now == SD2 && len_base == 8'd1) begin
+          le_d = char_byte_i;
+        end else if (first_now == SD2 && len_base == 8'd2 && char_byte_i != le_q) begin
+          ends     = 1'b1;
+          char_status_o = StLengthMismatch;
+        end else if (first_now == SD2 && len_base == 8'd3 && char_byte_i != SD2) begin
+          ends     = 1'b1;
+          char_status_o = StLengthMismatch;
+        end else begin
+          if (first_now == SD2 && len_base == 8'd2) begin
+            // LE was checked to be at most 249: LE + 6 fits.
+            expect_d    = le_q + 8'd6;
+            expect_base = le_q + 8'd6;
           end
-          if (first_now == SD2 && len_base == 8'd1
-              && (char_byte_i < 8'd4 || char_byte_i > 8'd249)) begin
-            ends     = 1'b1;
-            char_status_o = StBadLength;
-          end else if (first_now == SD2 && len_base == 8'd1) begin
-            le_d = char_byte_i;
-          end else if (first_now == SD2 && len_base == 8'd2 && char_byte_i != le_q) begin
-            ends     = 1'b1;
-            char_status_o = StLengthMismatch;
-          end else if (first_now == SD2 && len_base == 8'd3 && char_byte_i != SD2) begin
-            ends     = 1'b1;
-            char_status_o = StLengthMismatch;
-          end else begin
-            if (first_now == SD2 && len_base == 8'd2) begin
-              // LE was checked to be at most 249: LE + 6 fits.
-              expect_d    = le_q + 8'd6;
-              expect_base = le_q + 8'd6;
-            end
-            if (expect_base != 8'd0 && len_base + 8'd1 >= expect_base) begin
-              ends = 1'b1;
-              if (!has_fcs)                 char_status_o = StGood;
-              else if (!fcs_ok_d)           char_status_o = StBadFcs;
-              else if (char_byte_i != ED)   char_status_o = StNoEnd;
-              else                          char_status_o = StGood;
-            end
+          if (expect_base != 8'd0 && len_base + 8'd1 >= expect_base) begin
+            ends = 1'b1;
+            if (!has_fcs)                 char_status_o = StGood;
+            else if (!fcs_ok_d)           char_status_o = StBadFcs;
+            else if (char_byte_i != ED)   char_status_o = StNoEnd;
+            else                          char_status_o = StGood;
           end
         end
       end
+    end
 
-      // A character that ends the telegram delivers it, at its end tick.
-      if (ends) begin
-        char_deliver_o = 1'b1;
-        char_end  = char_end_i;
-        inside_c  = 1'b0;
-      end
-
+    // A character that ends the telegram delivers it, at its end tick.
+    if (ends) begin
+      char_deliver_o = 1'b1;
+      char_end  = char_end_i;
+      inside_c  = 1'b0;
     end
     len_o   = len_d;
     first_o = first_now;

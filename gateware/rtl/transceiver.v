@@ -27,6 +27,12 @@
 //
 // The rates' figures (the receiver's, the glitch, TSYN and the gap in clocks, the detection's
 // sample period and stop bit's end) come from transceiver_rates.svh, written from the model.
+//
+// What changed for hardware: ticks are 32 bits (the model's u64 truncated; every tick compared
+// is within 2^31 clocks of now), idle times 24 bits, saturating; a detection's start is its age
+// in the detecting channel's samples times that rate's period. Not yet for hardware: the five
+// stages are one clock, as the model's tick is (12.9 MHz on the HX8K, README "Gateware").
+
 `default_nettype none
 
 module transceiver #(

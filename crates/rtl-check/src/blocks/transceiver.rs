@@ -17,7 +17,7 @@ use dp_consts::Baud;
 use dp_phy::autobaud::AutoBaud;
 use dp_phy::bus::{FaultInjector, FaultWindow, LineFault};
 use dp_phy::sweep::{self, SweepCase};
-use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Testbench};
+use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Observer, Testbench};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::transceiver::Stats;
 use dp_phy::{BaudState, BitTiming, Config, Transceiver};
@@ -220,13 +220,16 @@ impl Recorder {
     }
 }
 
+/// An observer that gives `recorder` every clock of a bench.
+fn observer(recorder: &Rc<RefCell<Recorder>>) -> Observer {
+    let recorder = recorder.clone();
+    Box::new(move |line, adapter, out| recorder.borrow_mut().clock(line, adapter, out.telegram))
+}
+
 /// A bench whose every clock `recorder` takes.
 fn observed_bench(recorder: &Rc<RefCell<Recorder>>, timing: BitTiming) -> Testbench {
     let mut tb = Testbench::new(Config::default(), timing, FaultInjector::none());
-    let observer = recorder.clone();
-    tb.observe(Box::new(move |line, adapter, out| {
-        observer.borrow_mut().clock(line, adapter, out.telegram)
-    }));
+    tb.observe(observer(recorder));
     tb
 }
 
@@ -257,11 +260,8 @@ pub fn bench_case(name: String, timing: BitTiming, drive: impl FnOnce(&mut Testb
 /// One sweep case, strict, with what the adapter saw and did at every clock.
 pub fn sweep_case(case: &SweepCase) -> Case {
     let recorder = Rc::new(RefCell::new(Recorder::new()));
-    let observer = recorder.clone();
-    let run = sweep::drive(case, &Config::default(), false, move |tb| {
-        tb.observe(Box::new(move |line, adapter, out| {
-            observer.borrow_mut().clock(line, adapter, out.telegram)
-        }))
+    let run = sweep::drive(case, &Config::default(), false, |tb| {
+        tb.observe(observer(&recorder))
     });
     drop(run);
     finish(recorder, format!("transceiver-{case}"))

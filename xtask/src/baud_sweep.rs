@@ -21,8 +21,6 @@ use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::{Baud, BaudState, Config, Tick};
 use std::fmt::Write as _;
 
-type Case = SweepCase;
-
 #[derive(Clone, Debug, Default, PartialEq)]
 struct Outcome {
     locked: Option<Baud>,
@@ -50,7 +48,7 @@ struct Row {
 
 const CSV_HEADER: &str = "scenario,rate,ppm,noise,phase,locked_rate,first_telegram_lock,lost_before_lock,lock_time_bits,false_lock,corrupt_delivered,noise_relocks,lost_not_hit";
 
-fn run_case(c: &Case, cfg: &Config) -> Outcome {
+fn run_case(c: &SweepCase, cfg: &Config) -> Outcome {
     let SweepRun {
         tb,
         target,
@@ -121,10 +119,6 @@ fn run_case(c: &Case, cfg: &Config) -> Outcome {
     o
 }
 
-fn scenario_name(s: Scenario) -> String {
-    s.to_string()
-}
-
 fn parse_baud(s: &str) -> Result<Baud> {
     Baud::ALL
         .into_iter()
@@ -137,7 +131,7 @@ impl Row {
         let o = &self.outcome;
         format!(
             "{},{},{},{},{},{},{},{},{:.1},{},{},{},{}",
-            scenario_name(self.scenario),
+            self.scenario,
             self.baud,
             self.ppm,
             self.noise,
@@ -332,7 +326,7 @@ pub fn run(args: &[String]) -> Result<()> {
         }
     };
     let all = cases(quick);
-    let mine: Vec<Case> = all
+    let mine: Vec<SweepCase> = all
         .iter()
         .enumerate()
         .filter(|(k, _)| k % shards == shard - 1)
@@ -360,7 +354,7 @@ pub fn run(args: &[String]) -> Result<()> {
 }
 
 /// Run `mine` on up to four threads; the rows in the order of `mine`.
-fn run_cases(mine: &[Case], cfg: &Config) -> Vec<Row> {
+fn run_cases(mine: &[SweepCase], cfg: &Config) -> Vec<Row> {
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(4);
@@ -665,7 +659,7 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         for shard in 1..=2 {
-            let mine: Vec<Case> = all
+            let mine: Vec<SweepCase> = all
                 .iter()
                 .enumerate()
                 .filter(|(k, _)| k % 2 == shard - 1)

@@ -9,17 +9,19 @@
 // detection's character for the next clock (the model's `detected`).
 //
 // One clock runs in the model's order, each stage's decisions taken from the one before it:
-//   1. The character decided on the last clock (edge_rx's registers) or detected goes to the
-//      delimiter; its telegram confirms a trial (locked), or a failed trial takes its lock back
-//      (the receiver and idle line of the lock from this clock on: edge_rx's hand-over without
-//      a detection, rate_idle's restore) or searches again. *_m: the state after it.
+//   1. The verdict of the telegram delivered on the last clock (verdict_q, the model's
+//      `verdict`): a good one confirms a trial (locked), a bad one fails it: the lock taken
+//      back (the receiver and idle line of the lock from this clock on: edge_rx's hand-over
+//      without a detection, rate_idle's restore) or searching again. *_m: the state after it.
+//      The character decided on the last clock (edge_rx's registers) or detected goes to the
+//      delimiter.
 //   2. The idle clocks before a fall at the rate heard.
 //   3. The search, told the rate heard; a detection at another rate (not of the trial's own
 //      delimiter) starts a trial: the receiver handed over, the idle line loaded from the
 //      detecting channel, the lock kept as the fallback.
 //   4. Otherwise the receiver on the line at its rate; with no character under way, the
-//      delimiter's idle check, whose gap ends a trial as in 1 (the lock's receiver starts on
-//      the next clock: fresh_q).
+//      delimiter's idle check. A telegram delivered (by its character or a gap) leaves its
+//      verdict for the next clock, unless a trial or a search replaces its receiver.
 //   5. The baud watchdog, between telegrams: its expiry searches again.
 // A reset of the delimiter or a rate's figures for it (use_rate) takes effect after its
 // character and its idle check, as the model's calls come; the watchdog's commands of the
@@ -97,7 +99,8 @@ module transceiver #(
   logic        det_q, det_d;
   logic [7:0]  det_byte_q, det_byte_d;
   logic [31:0] det_end_q, det_end_d;
-  logic        fresh_q, fresh_d;
+  logic        verdict_q, verdict_d, verdict_good_q, verdict_good_d;
+  logic        verdict_confirms_q, verdict_confirms_d;
   logic [9:0]  held_q, held_d;
 
   // ---- The synchroniser and the search ----
@@ -172,9 +175,9 @@ module transceiver #(
   logic        idle_restore, idle_load, fb_load;
   logic [PendWidth-1:0] idle_load_left;
   logic [31:0] idle_load_since, idle_load_before;
-  logic [PendWidth-1:0] idle_left_unused, idle_left_e, fb_left, fb_left_e;
+  logic [PendWidth-1:0] idle_left_unused, idle_left_e, fb_left, fb_left_e_unused;
   logic [31:0] idle_since_q, idle_since_e, idle_before_unused, idle_before_e;
-  logic [31:0] fb_since_q, fb_since_e, fb_before_q, fb_before_e;
+  logic [31:0] fb_since_q, fb_since_e_unused, fb_before_q, fb_before_e_unused;
   rate_idle #(.PendWidth(PendWidth)) u_idle (
     .clk_i, .rst_ni, .now_i(now_q), .glitch_i(rate_glitch(rate_m)),
     .sample_i(rx_on_m && samples[rate_m]), .edge_i(changed[rate_m]), .level_i(level),
@@ -196,7 +199,8 @@ module transceiver #(
     .load_i(fb_load), .load_cancel_left_i(idle_left_e), .load_high_since_i(idle_since_e),
     .load_high_before_i(idle_before_e),
     .cancel_left_o(fb_left), .high_since_o(fb_since_q), .high_before_o(fb_before_q),
-    .cancel_left_e_o(fb_left_e), .high_since_e_o(fb_since_e), .high_before_e_o(fb_before_e)
+    .cancel_left_e_o(fb_left_e_unused), .high_since_e_o(fb_since_e_unused),
+    .high_before_e_o(fb_before_e_unused)
   );
 
   // The delimiter.
@@ -204,8 +208,8 @@ module transceiver #(
   logic        dl_config, dl_reset, dl_idle_check;
   logic [3:0]  dl_config_rate;
   logic [IW-1:0] idle_now;
-  logic        dl_char_deliver, dl_deliver, dl_inside, dl_not_synced_unused;
-  logic [3:0]  dl_char_status, dl_status;
+  logic        dl_char_deliver_unused, dl_deliver, dl_inside, dl_not_synced_unused;
+  logic [3:0]  dl_char_status_unused, dl_status;
   logic [7:0]  dl_first;
   delimiter u_delimiter (
     .clk_i, .rst_ni,
@@ -216,7 +220,8 @@ module transceiver #(
     .char_idle_before_i(det_char ? {IW{1'b1}} : rx_char_idle),
     .char_end_i(det_char ? det_end_q : rx_end),
     .idle_check_i(dl_idle_check), .idle_i(idle_now), .now_i(now_q),
-    .char_deliver_o(dl_char_deliver), .char_status_o(dl_char_status), .first_o(dl_first),
+    .char_deliver_o(dl_char_deliver_unused), .char_status_o(dl_char_status_unused),
+    .first_o(dl_first),
     .inside_o(dl_inside), .in_telegram_o,
     .deliver_o(dl_deliver), .not_synced_o(dl_not_synced_unused), .status_o(dl_status),
     .len_o, .end_o, .wr_o, .wr_addr_o, .wr_data_o
@@ -236,11 +241,11 @@ module transceiver #(
   // the blocks they drive, so that no combinational loop appears between the blocks (a stage
   // later in the clock never feeds an earlier one).
 
-  // 1. The character of the last clock, and what its telegram does.
+  // 1. The last clock's verdict, and the character of the last clock.
   assign det_char = det_q;
   assign ch_valid = det_q || rx_char;
   logic [1:0]  state_m;
-  logic        fb_valid_m, restore_m, fresh_m;
+  logic        fb_valid_m, restore_m;
   logic [31:0] last_end_m;
   logic        wd1_start, wd1_stop, cfg1, rst1;
   always_comb begin
@@ -253,14 +258,13 @@ module transceiver #(
     wd1_stop   = 1'b0;
     cfg1       = 1'b0;
     rst1       = 1'b0;
-    if (dl_char_deliver && dl_char_status == StGood) begin
-      // An SC does not confirm a rate.
-      if (state_q == Trial && dl_first != SC) begin
+    if (verdict_q && verdict_good_q) begin
+      if (state_q == Trial && verdict_confirms_q) begin
         state_m    = Locked;
         fb_valid_m = 1'b0;
       end
       wd1_start = 1'b1;
-    end else if (dl_char_deliver && state_q == Trial) begin
+    end else if (verdict_q && state_q == Trial) begin
       if (fb_valid_q) begin
         // The lock taken back: its receiver and idle line from this clock on.
         restore_m = 1'b1;
@@ -275,13 +279,12 @@ module transceiver #(
       fb_valid_m = 1'b0;
     end
     rx_on_m = state_m != Searching;
-    fresh_m = fresh_q || restore_m;
   end
 
   // 2. The idle clocks before a fall at the rate heard (a receiver reset before this clock has
   // nothing under way).
   always_comb begin
-    idle_before  = (rx_on_m && held_q[rate_m] && !(rx_active && !fresh_m))
+    idle_before  = (rx_on_m && held_q[rate_m] && !(rx_active && !restore_m))
                  ? idle_since(now_q, later(last_end_m, restore_m ? fb_since_q : idle_since_q))
                  : '0;
     idle_restore = restore_m;
@@ -321,7 +324,7 @@ module transceiver #(
     cfg3_rate     = rate_m;
     rst3          = rst1;
     rx_rate           = rate_m;
-    rx_hand_over      = !rx_on_m || fresh_m;
+    rx_hand_over      = !rx_on_m || restore_m;
     rx_hand_over_idle = idle_before;
     if (switched) begin
       if (state_m == Searching) begin
@@ -359,55 +362,30 @@ module transceiver #(
     idle_now      = held_d[rate_m] ? idle_since(now_q, later(last_end_m, idle_since_e)) : '0;
   end
 
-  // 5. A gap ends a trial: back to its lock (whose receiver starts on the next clock) or to
-  // searching. Then the watchdog is checked between telegrams.
-  logic [1:0] state5;
-  logic       fb_valid5, fresh5, cfg5, rst5;
-  logic [3:0] cfg5_rate;
+  // 5. The telegram's verdict for the next clock; the watchdog, checked between telegrams,
+  // whose expiry searches again.
   always_comb begin
-    state5           = state3;
-    rate_d           = rate3;
-    fb_valid5        = fb_valid3;
-    fresh5           = 1'b0;
     idle_load        = idle_load3;
     idle_load_left   = s_pending_left;
     idle_load_since  = det_end;
     idle_load_before = det_end;
     wd_start         = wd3_start;
     wd_stop          = wd3_stop;
-    cfg5             = cfg3;
-    cfg5_rate        = cfg3_rate;
-    rst5             = rst3;
-    if (dl_deliver && !dl_char_deliver && state_m == Trial) begin
-      if (fb_valid_m) begin
-        state5           = Locked;
-        rate_d           = fb_rate_q;
-        fresh5           = 1'b1;
-        idle_load        = 1'b1;
-        idle_load_left   = fb_left_e;
-        idle_load_since  = fb_since_e;
-        idle_load_before = fb_before_e;
-        cfg5             = 1'b1;
-        cfg5_rate        = fb_rate_q;
-      end else begin
-        state5   = Searching;
-        wd_start = 1'b0;
-        wd_stop  = 1'b1;
-        rst5     = 1'b1;
-      end
-      fb_valid5 = 1'b0;
-    end
-    wd_check = rx_on_m && !switched && !rx_deciding && !dl_inside;
+    // Not on the clock a telegram ends (in_telegram_o, as the clock began): its verdict
+    // restarts the watchdog on the next.
+    wd_check         = rx_on_m && !switched && !rx_deciding && !dl_inside && !in_telegram_o;
   end
 
-  // The watchdog's expiry searches again.
   always_comb begin
-    state_d        = wd_expired ? Searching : state5;
-    fb_valid_d     = fb_valid5 && !wd_expired;
-    fresh_d        = fresh5 && !wd_expired;
-    dl_config      = cfg5;
-    dl_config_rate = cfg5_rate;
-    dl_reset       = rst5 || wd_expired;
+    rate_d             = rate3;
+    state_d            = wd_expired ? Searching : state3;
+    fb_valid_d         = fb_valid3 && !wd_expired;
+    dl_config          = cfg3;
+    dl_config_rate     = cfg3_rate;
+    dl_reset           = rst3 || wd_expired;
+    verdict_d          = dl_deliver && !switched && !wd_expired;
+    verdict_good_d     = dl_status == StGood;
+    verdict_confirms_d = dl_first != SC;
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
@@ -422,7 +400,9 @@ module transceiver #(
       det_q         <= 1'b0;
       det_byte_q    <= '0;
       det_end_q     <= '0;
-      fresh_q       <= 1'b0;
+      verdict_q     <= 1'b0;
+      verdict_good_q     <= 1'b0;
+      verdict_confirms_q <= 1'b0;
       held_q        <= '1;
     end else begin
       now_q         <= now_q + 32'd1;
@@ -435,7 +415,9 @@ module transceiver #(
       det_q         <= det_d;
       det_byte_q    <= det_byte_d;
       det_end_q     <= det_end_d;
-      fresh_q       <= fresh_d;
+      verdict_q     <= verdict_d;
+      verdict_good_q     <= verdict_good_d;
+      verdict_confirms_q <= verdict_confirms_d;
       held_q        <= held_d;
     end
   end
@@ -446,8 +428,7 @@ module transceiver #(
   assign fallback_o       = fb_valid_q ? fb_rate_q : 4'd0;
   assign deliver_o        = dl_deliver;
   assign status_o         = dl_status;
-  // The model's receiver is reset at once where this one is on the next clock.
-  assign rx_active_o      = rx_active && !fresh_q && state_q != Searching;
+  assign rx_active_o      = rx_active && state_q != Searching;
   assign idle_o           = state_q != Searching && held_q[rate_q] && !rx_active_o && !rx_char;
   assign idle_since_o     = later(last_end_q, idle_since_q);
 endmodule

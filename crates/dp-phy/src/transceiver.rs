@@ -170,6 +170,12 @@ pub struct Transceiver {
     /// receiver's last one at the old rate. The search checked TSYN before it, and it is never
     /// the transceiver's echo (it started the trial).
     detected: Option<RxChar>,
+    /// A delivered telegram's verdict on the baud state, acted on first thing on the next
+    /// clock: a register between the delimiter and the baud control, as the gateware has it
+    /// (README "Gateware": the delimiter's decision and the rate's change do not fit one
+    /// 48 MHz clock together). It belongs to the receiver whose telegram it judges: a new
+    /// trial or a search drops it.
+    verdict: Option<Verdict>,
     /// The last tick the transmitter drove the line: a character that started by then is the
     /// transceiver's own echo.
     drove_until: Tick,
@@ -181,6 +187,15 @@ pub struct Transceiver {
     pending_not_before: Option<Tick>,
     response: Vec<u8>,
     stats: Stats,
+}
+
+/// What a delivered telegram says about the rate it came at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Verdict {
+    /// Good: it confirms a trial, unless it is an SC (a short acknowledgement proves little).
+    Good { confirms: bool },
+    /// Bad: a trial fails on it.
+    Bad,
 }
 
 /// The line is taken into the clock domain with no glitch filter: every glitch is weighed, bit by
@@ -208,6 +223,7 @@ impl Transceiver {
             fallback_idle: RATE_IDLE_NONE,
             decided: None,
             detected: None,
+            verdict: None,
             drove_until: 0,
             watchdog: Watchdog::STOPPED,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
@@ -357,6 +373,17 @@ impl Transceiver {
     pub fn tick(&mut self, line: bool) -> TickOut {
         let mut out = TickOut::default();
         let now = self.now;
+        // A telegram under way as the clock began: its last character's verdict, which
+        // restarts the watchdog, comes on the next clock.
+        let was_inside = self.delimiter.inside();
+        if let Some(v) = self.verdict.take() {
+            // The telegram was the last thing its receiver took: nothing comes with its verdict.
+            debug_assert!(
+                self.decided.is_none() && self.detected.is_none(),
+                "a character on a verdict's clock at {now}"
+            );
+            self.on_verdict(v, &mut out);
+        }
         if let Some((c, idle_before)) = self.decided.take() {
             self.last_end = c.end;
             if c.start > self.drove_until {
@@ -430,8 +457,13 @@ impl Transceiver {
                 self.on_delivery(d, &mut out);
             }
             // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
-            // the watchdog, so it expires only between telegrams.
-            if self.decided.is_none() && !self.delimiter.inside() && self.watchdog.expire(now) {
+            // the watchdog, so it expires only between telegrams (not on the clock one ends,
+            // before its verdict).
+            if self.decided.is_none()
+                && !was_inside
+                && !self.delimiter.inside()
+                && self.watchdog.expire(now)
+            {
                 self.stats.watchdog_expiries += 1;
                 self.search_again(&mut out);
             }
@@ -500,32 +532,45 @@ impl Transceiver {
             Delivery::Telegram => {
                 out.telegram = true;
                 let t = self.delimiter.telegram();
-                if t.is_good() {
+                self.verdict = Some(if t.is_good() {
                     self.stats.telegrams_good += 1;
-                    let confirms = t.bytes()[0] != SC;
-                    if let BaudState::Trial(b) = self.state {
-                        if confirms {
-                            self.state = BaudState::Locked(b);
-                            out.baud_changed = true;
-                            if self.fallback.take().is_some() {
-                                self.stats.relocks += 1;
-                            }
-                        }
+                    Verdict::Good {
+                        confirms: t.bytes()[0] != SC,
                     }
-                    self.watchdog.start(self.now, self.watchdog_clocks);
                 } else {
                     self.stats.telegrams_bad += 1;
-                    if let BaudState::Trial(_) = self.state {
-                        match self.fallback.take() {
-                            Some(locked) => {
-                                self.stats.relock_trials_failed += 1;
-                                self.use_rate(locked);
-                                self.rx_idle = self.fallback_idle;
-                                self.state = BaudState::Locked(locked);
-                                out.baud_changed = true;
-                            }
-                            None => self.search_again(out),
+                    Verdict::Bad
+                });
+            }
+        }
+    }
+
+    /// The last clock's telegram, for the baud state: a good one confirms a trial and restarts
+    /// the watchdog; a bad one fails a trial, back to its lock (the lock's receiver and idle
+    /// line from this clock on) or to searching.
+    fn on_verdict(&mut self, v: Verdict, out: &mut TickOut) {
+        match v {
+            Verdict::Good { confirms } => {
+                if let (BaudState::Trial(b), true) = (self.state, confirms) {
+                    self.state = BaudState::Locked(b);
+                    out.baud_changed = true;
+                    if self.fallback.take().is_some() {
+                        self.stats.relocks += 1;
+                    }
+                }
+                self.watchdog.start(self.now, self.watchdog_clocks);
+            }
+            Verdict::Bad => {
+                if let BaudState::Trial(_) = self.state {
+                    match self.fallback.take() {
+                        Some(locked) => {
+                            self.stats.relock_trials_failed += 1;
+                            self.use_rate(locked);
+                            self.rx_idle = self.fallback_idle;
+                            self.state = BaudState::Locked(locked);
+                            out.baud_changed = true;
                         }
+                        None => self.search_again(out),
                     }
                 }
             }
@@ -555,6 +600,7 @@ impl Transceiver {
         self.rx = Some(EdgeRx::sampled(timing, figures.period, figures.phase));
         self.tx = Some(UartTx::new(timing));
         self.pending_not_before = None;
+        self.verdict = None;
         self.rx_q = EdgeRxQ {
             read_until: self.now,
             ..EDGE_RX_RESET
@@ -574,6 +620,7 @@ impl Transceiver {
         self.tx = None;
         self.pending_not_before = None;
         self.rx_q = EDGE_RX_RESET;
+        self.verdict = None;
         self.delimiter.reset();
         self.watchdog.stop();
     }
@@ -583,7 +630,7 @@ impl Transceiver {
         // An edge is ticked: the search and the receiver both act on it; so is a character
         // decided and not yet delivered.
         let now = self.now;
-        if self.decided.is_some() || self.detected.is_some() {
+        if self.decided.is_some() || self.detected.is_some() || self.verdict.is_some() {
             return 0;
         }
         let (sync_quiet, _) = filter::quiet_for(line, SYNC_FILTER_LEN, &self.sync_q);

@@ -802,8 +802,8 @@ fn pinned_waveforms() {
     assert_eq!(exchange, PINNED_12M, "exchange at 12M");
 }
 
-const PINNED_LOCK: &str = "23a81ddd1cd2ab997e551b7686f8f25e81c126d4ec532fe7168db28759cfe91d";
-const PINNED_12M: &str = "7dac91b630d42dd88655f65d513021d8b9f047132184cdb650843701407fecc4";
+const PINNED_LOCK: &str = "1f39a46f787b4fbf4f927d8c7980ae466996844a7790b529fc1031ff0608c943";
+const PINNED_12M: &str = "568a7c613073cde5aeecd6db55fda217501efcb838c01a9630ee013931fbed57";
 
 /// Found by `PROPTEST_CASES=20000` (issue 31): fast mode counted one search rejection fewer
 /// than strict mode at 9.6k with glitches.

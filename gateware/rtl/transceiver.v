@@ -144,7 +144,7 @@ module transceiver #(
   logic [2:0]  rx_error;
   logic [31:0] rx_start_unused, rx_end;
   logic [IW-1:0] rx_char_idle;
-  logic        rx_active, rx_active_next, rx_deciding;
+  logic        rx_active, rx_active_next_unused, rx_deciding_unused;
   logic [17:0] rx_deadline_unused, rx_next_from_unused;
   logic [1:0]  rx_stage_unused;
   logic        rx_next_active_unused, rx_next_from_valid_unused;
@@ -165,7 +165,7 @@ module transceiver #(
     .hand_over_idle_i(rx_hand_over_idle), .clear_i(1'b0),
     .char_o(rx_char), .char_byte_o(rx_byte), .char_error_o(rx_error),
     .char_start_o(rx_start_unused), .char_end_o(rx_end), .char_idle_before_o(rx_char_idle),
-    .active_o(rx_active), .active_next_o(rx_active_next), .deciding_o(rx_deciding),
+    .active_o(rx_active), .active_next_o(rx_active_next_unused), .deciding_o(rx_deciding_unused),
     .deadline_o(rx_deadline_unused), .stage_o(rx_stage_unused),
     .next_active_o(rx_next_active_unused), .next_from_valid_o(rx_next_from_valid_unused),
     .next_from_o(rx_next_from_unused)
@@ -283,8 +283,11 @@ module transceiver #(
 
   // 2. The idle clocks before a fall at the rate heard (a receiver reset before this clock has
   // nothing under way).
+  logic rx_was_active;
   always_comb begin
-    idle_before  = (rx_on_m && held_q[rate_m] && !(rx_active && !restore_m))
+    // A character under way as the clock began (a lock taken back starts afresh).
+    rx_was_active = rx_active && !restore_m;
+    idle_before  = (rx_on_m && held_q[rate_m] && !rx_was_active)
                  ? idle_since(now_q, later(last_end_m, restore_m ? fb_since_q : idle_since_q))
                  : '0;
     idle_restore = restore_m;
@@ -356,9 +359,10 @@ module transceiver #(
     end
   end
 
-  // 4. With no character under way at the receiver, the delimiter's idle check.
+  // 4. With no character under way at the receiver as the clock began, the delimiter's idle
+  // check.
   always_comb begin
-    dl_idle_check = rx_on_m && !switched && !rx_active_next && !rx_deciding;
+    dl_idle_check = rx_on_m && !switched && !rx_was_active;
     idle_now      = held_d[rate_m] ? idle_since(now_q, later(last_end_m, idle_since_e)) : '0;
   end
 
@@ -373,7 +377,7 @@ module transceiver #(
     wd_stop          = wd3_stop;
     // Not on the clock a telegram ends (in_telegram_o, as the clock began): its verdict
     // restarts the watchdog on the next.
-    wd_check         = rx_on_m && !switched && !rx_deciding && !dl_inside && !in_telegram_o;
+    wd_check         = rx_on_m && !switched && !rx_was_active && !dl_inside && !in_telegram_o;
   end
 
   always_comb begin

@@ -440,6 +440,8 @@ impl Transceiver {
             None => false,
         };
 
+        // As the clock began: a lock taken back by a verdict starts afresh.
+        let was_taking = self.rx_q.active();
         if let (Some(rx), Some(b), false) = (self.rx, self.heard(), switched) {
             let level = self.search_q.held[b.index()];
             if level != held[b.index()] {
@@ -450,20 +452,19 @@ impl Transceiver {
                 // Delivered on the next clock.
                 self.decided = rx.act(now, level, &mut self.rx_q);
             }
-            // A character decided and not yet delivered is under way still.
-            let taking = self.rx_q.active() || self.decided.is_some();
-            if !taking {
+            // The idle check and the watchdog wait while a character was under way as the
+            // clock began (one decided on it included), not for this clock's step: the
+            // receiver's logic and theirs do not fit one 48 MHz clock together (README
+            // "Gateware"). A fall's clock has no idle line; a false start that ends on this
+            // clock holds them one clock.
+            if !was_taking {
                 let d = self.delimiter.on_idle(self.idle(), now);
                 self.on_delivery(d, &mut out);
             }
             // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
             // the watchdog, so it expires only between telegrams (not on the clock one ends,
             // before its verdict).
-            if self.decided.is_none()
-                && !was_inside
-                && !self.delimiter.inside()
-                && self.watchdog.expire(now)
-            {
+            if !was_taking && !was_inside && !self.delimiter.inside() && self.watchdog.expire(now) {
                 self.stats.watchdog_expiries += 1;
                 self.search_again(&mut out);
             }

@@ -64,6 +64,13 @@ module edge_rx #(
   input  wire [IdleWidth-1:0]   idle_before_i,
   input  wire                   hand_over_i,
   input  wire [IdleWidth-1:0]   hand_over_idle_i,
+  // The hand-over's own rate, which may not be the step's: its fall on this clock, and the
+  // figures its first candidate starts from (a reader's start, the start bit's end).
+  input  wire                   hand_over_fell_i,
+  input  wire [PhaseWidth-1:0]  hand_over_modulo_i,
+  input  wire [PhaseWidth-1:0]  hand_over_modulo_less_inc_i,
+  input  wire [PhaseWidth-1:0]  hand_over_modulo_less_two_inc_i,
+  input  wire [OffsetWidth-1:0] hand_over_start_end_i,
   input  wire                   clear_i,
   // A character decided on the last clock: its byte, error (0 none, 1 parity, 2 framing, 3
   // break, 4 noise: delimiter.v's code), start and end ticks, and the idle clocks before it.
@@ -240,7 +247,6 @@ module edge_rx #(
         end
       end
     end
-    if (hand_over_i && fell) start_reader[0] = 1'b1;
   end
 
   for (genvar k = 0; k < 4; k++) begin : g_reader
@@ -516,15 +522,18 @@ module edge_rx #(
       next_from_valid_d = 1'b0;
       idle_pending_d    = 1'b0;
       due_d             = '0;
-      if (hand_over_i && !clear_i && fell) begin
+      if (hand_over_i && !clear_i && hand_over_fell_i) begin
         // This clock's fall opens the character after the one the search decided, in slot 0
-        // of lane 0.
+        // of lane 0, its reader started at the hand-over's rate (char_reader_step's start).
         live_d[1:0]         = 2'b01;
         starts_d[0 +: TW]   = now;
         start_low_d[0]      = 1'b0;
         opened_d[0 +: TW]   = now;
         idle_d[0 +: IW]     = hand_over_idle_i;
-        deadline_d[0 +: TW] = now + TW'(start_end_i);
+        deadline_d[0 +: TW] = now + TW'(hand_over_start_end_i);
+        readers_d[0 +: RW]  = {4'd0, hand_over_modulo_less_inc_i,
+                               {1'b0, hand_over_modulo_less_two_inc_i},
+                               -{1'b0, hand_over_modulo_i}, 11'd0, 1'b0, 2'd0, 1'b0, PW'(0)};
       end
     end
   end

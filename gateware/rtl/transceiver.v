@@ -136,7 +136,6 @@ module transceiver #(
 
   // ---- Blocks driven below ----
   // The receiver.
-  logic [3:0]  rx_rate;
   logic        rx_hand_over;
   logic [IW-1:0] rx_hand_over_idle, idle_before;
   logic        rx_char;
@@ -148,8 +147,25 @@ module transceiver #(
   logic [17:0] rx_deadline_unused, rx_next_from_unused;
   logic [1:0]  rx_stage_unused;
   logic        rx_next_active_unused, rx_next_from_valid_unused;
+  // The step at the rate heard; a hand-over starts its first candidate at its own rate, the
+  // detection's or the rate heard's (a reset), chosen last.
   logic [RateReaderWidth-1:0] reader;
-  assign reader = rate_reader(rx_rate);
+  // Of the detection's rate only a start's figures are read.
+  /* verilator lint_off UNUSEDSIGNAL */
+  logic [RateReaderWidth-1:0] det_reader;
+  /* verilator lint_on UNUSEDSIGNAL */
+  logic        rx_hand_over_fell;
+  logic [PW-1:0] ho_modulo, ho_modulo_less_inc, ho_modulo_less_two_inc;
+  logic [15:0] ho_start_end;
+  assign reader                 = rate_reader(rate_m);
+  assign det_reader             = rate_reader(s_rate);
+  assign ho_modulo              = switched ? det_reader[RdModulo +: PW] : reader[RdModulo +: PW];
+  assign ho_modulo_less_inc     = switched ? det_reader[RdModuloLessInc +: PW]
+                                           : reader[RdModuloLessInc +: PW];
+  assign ho_modulo_less_two_inc = switched ? det_reader[RdModuloLessTwoInc +: PW]
+                                           : reader[RdModuloLessTwoInc +: PW];
+  assign ho_start_end           = switched ? det_reader[RdStartEnd +: 16]
+                                           : reader[RdStartEnd +: 16];
   edge_rx #(.PhaseWidth(PW)) u_rx (
     .clk_i, .rst_ni, .now_i(now_q),
     .inc_i(reader[RdInc +: PW]), .two_inc_i(reader[RdTwoInc +: PW + 1]),
@@ -160,9 +176,14 @@ module transceiver #(
     .modulo_less_two_inc_i(reader[RdModuloLessTwoInc +: PW]),
     .start_end_i(reader[RdStartEnd +: 16]), .stop_middle_i(reader[RdStopMiddle +: 16]),
     .stop_end_i(reader[RdStopEnd +: 16]),
-    .step_i(samples[rx_rate]), .level_i(held_d[rx_rate]), .edge_i(changed[rx_rate]),
+    .step_i(samples[rate_m]), .level_i(held_d[rate_m]), .edge_i(changed[rate_m]),
     .idle_before_i(idle_before), .hand_over_i(rx_hand_over),
-    .hand_over_idle_i(rx_hand_over_idle), .clear_i(1'b0),
+    .hand_over_idle_i(rx_hand_over_idle),
+    .hand_over_fell_i(rx_hand_over_fell),
+    .hand_over_modulo_i(ho_modulo), .hand_over_modulo_less_inc_i(ho_modulo_less_inc),
+    .hand_over_modulo_less_two_inc_i(ho_modulo_less_two_inc),
+    .hand_over_start_end_i(ho_start_end),
+    .clear_i(1'b0),
     .char_o(rx_char), .char_byte_o(rx_byte), .char_error_o(rx_error),
     .char_start_o(rx_start_unused), .char_end_o(rx_end), .char_idle_before_o(rx_char_idle),
     .active_o(rx_active), .active_next_o(rx_active_next_unused), .deciding_o(rx_deciding_unused),
@@ -208,7 +229,7 @@ module transceiver #(
   logic        dl_config, dl_reset, dl_idle_check;
   logic [3:0]  dl_config_rate;
   logic [IW-1:0] idle_now;
-  logic        dl_char_deliver_unused, dl_deliver, dl_inside, dl_not_synced_unused;
+  logic        dl_char_deliver_unused, dl_deliver, dl_inside_unused, dl_not_synced_unused;
   logic [3:0]  dl_char_status_unused, dl_status;
   logic [7:0]  dl_first;
   delimiter u_delimiter (
@@ -222,7 +243,7 @@ module transceiver #(
     .idle_check_i(dl_idle_check), .idle_i(idle_now), .now_i(now_q),
     .char_deliver_o(dl_char_deliver_unused), .char_status_o(dl_char_status_unused),
     .first_o(dl_first),
-    .inside_o(dl_inside), .in_telegram_o,
+    .inside_o(dl_inside_unused), .in_telegram_o,
     .deliver_o(dl_deliver), .not_synced_o(dl_not_synced_unused), .status_o(dl_status),
     .len_o, .end_o, .wr_o, .wr_addr_o, .wr_data_o
   );
@@ -326,9 +347,9 @@ module transceiver #(
     cfg3          = cfg1;
     cfg3_rate     = rate_m;
     rst3          = rst1;
-    rx_rate           = rate_m;
     rx_hand_over      = !rx_on_m || restore_m;
     rx_hand_over_idle = idle_before;
+    rx_hand_over_fell = changed[rate_m] && !held_d[rate_m];
     if (switched) begin
       if (state_m == Searching) begin
         fb_valid3 = 1'b0;
@@ -353,9 +374,9 @@ module transceiver #(
       det_d             = 1'b1;
       det_byte_d        = s_byte;
       det_end_d         = det_end;
-      rx_rate           = s_rate;
       rx_hand_over      = 1'b1;
       rx_hand_over_idle = idle_since(now_q, det_end);
+      rx_hand_over_fell = changed[s_rate] && !held_d[s_rate];
     end
   end
 
@@ -375,9 +396,9 @@ module transceiver #(
     idle_load_before = det_end;
     wd_start         = wd3_start;
     wd_stop          = wd3_stop;
-    // Not on the clock a telegram ends (in_telegram_o, as the clock began): its verdict
-    // restarts the watchdog on the next.
-    wd_check         = rx_on_m && !switched && !rx_was_active && !dl_inside && !in_telegram_o;
+    // Between telegrams: none under way as the clock began (in_telegram_o), so not on the
+    // clock one ends (its verdict restarts the watchdog on the next).
+    wd_check         = rx_on_m && !switched && !rx_was_active && !in_telegram_o;
   end
 
   always_comb begin

@@ -26,23 +26,20 @@ module watchdog #(
   logic             running_q, running_d;
   logic [Width-1:0] left_q, left_d;
 
-  // After this clock's command.
-  logic             running_b, expired;
-  logic [Width-1:0] left_b;
+  // The commands come late in the transceiver's clock: what a start and the registers each
+  // give is worked out apart, and the commands only choose (one LUT level after them).
+  logic             starts, due_q, expired;
+  logic [Width-1:0] left_after_start, left_after_clock;
 
   always_comb begin
-    running_b = running_q;
-    left_b    = left_q;
-    if (stop_i) begin
-      running_b = 1'b0;
-    end else if (start_i || (start_if_stopped_i && !running_q)) begin
-      running_b = 1'b1;
-      left_b    = clocks_i;
-    end
-    expired   = check_i && running_b && left_b == '0;
-    running_d = running_b && !expired;
+    starts           = start_i || (start_if_stopped_i && !running_q);
+    due_q            = running_q && left_q == '0;
+    left_after_start = clocks_i != '0 ? clocks_i - 1'b1 : '0;
+    left_after_clock = left_q != '0 ? left_q - 1'b1 : '0;
+    expired   = check_i && !stop_i && (starts ? clocks_i == '0 : due_q);
+    running_d = !stop_i && (starts || running_q) && !expired;
     // Stopped, or due: 0 (the model's left() is None, or 0).
-    left_d    = running_d && left_b != '0 ? left_b - 1'b1 : '0;
+    left_d    = !running_d ? '0 : starts ? left_after_start : left_after_clock;
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin

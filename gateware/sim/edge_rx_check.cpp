@@ -44,6 +44,8 @@ int main(int argc, char** argv) {
     top->clear_i = clear;
     top->idle_before_i = idle;
     top->hand_over_idle_i = hand_over_idle;
+    // The hand-over at the step's own rate (the transceiver's check covers another).
+    top->hand_over_fell_i = level != line && !level;
     line = level;
     // The character out on this clock (decided on the last): read it before the edge.
     top->clk_i = 0;
@@ -79,6 +81,7 @@ int main(int argc, char** argv) {
   top->edge_i = 0;
   top->step_i = 0;
   top->hand_over_i = 0;
+  top->hand_over_fell_i = 0;
   top->clear_i = 0;
   harness::reset(*top);
   // The lanes as reset leaves them: what the first clock is compared with.
@@ -96,6 +99,10 @@ int main(int argc, char** argv) {
         top->modulo_less_inc_i = in.u32();
         top->modulo_less_two_inc_i = in.u32();
         top->start_end_i = in.u32();
+        top->hand_over_modulo_i = top->modulo_i;
+        top->hand_over_modulo_less_inc_i = top->modulo_less_inc_i;
+        top->hand_over_modulo_less_two_inc_i = top->modulo_less_two_inc_i;
+        top->hand_over_start_end_i = top->start_end_i;
         top->stop_middle_i = in.u32();
         top->stop_end_i = in.u32();
         {

@@ -462,9 +462,9 @@ impl Transceiver {
                 self.on_delivery(d, &mut out);
             }
             // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
-            // the watchdog, so it expires only between telegrams (not on the clock one ends,
-            // before its verdict).
-            if !was_taking && !was_inside && !self.delimiter.inside() && self.watchdog.expire(now) {
+            // the watchdog, so it expires only between telegrams: none under way as the clock
+            // began (so not on the clock one ends, before its verdict).
+            if !was_taking && !was_inside && self.watchdog.expire(now) {
                 self.stats.watchdog_expiries += 1;
                 self.search_again(&mut out);
             }

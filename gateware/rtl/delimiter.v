@@ -35,10 +35,13 @@ module delimiter (
   input  wire [2:0]  char_error_i,
   input  wire [23:0] char_idle_before_i,
   input  wire [31:0] char_end_i,
-  // on_idle: the line's idle clocks now (saturating) and the tick.
+  // on_idle: whether the line's idle clocks now exceed the gap (gap_clocks_o: the caller
+  // compares, with figures it has at hand, and spares the clock a subtraction), and the tick.
   input  wire        idle_check_i,
-  input  wire [23:0] idle_i,
+  input  wire        idle_over_gap_i,
   input  wire [31:0] now_i,
+  // The gap inside a telegram now, in clocks (what idle_over_gap_i compares with).
+  output wire [23:0] gap_clocks_o,
   // The character's delivery alone (Delivery::Telegram from on_char), its status and the
   // telegram's first byte (an SC does not confirm a rate).
   output logic       char_deliver_o,
@@ -217,7 +220,7 @@ module delimiter (
   // on_idle, after the character.
   logic gap;
   always_comb begin
-    gap       = idle_check_i && inside_c && idle_i > gap_q;
+    gap       = idle_check_i && inside_c && idle_over_gap_i;
     inside_o  = inside_c && !gap;
     deliver_o = char_deliver_o || gap;
     status_o  = gap ? StGap : char_status_o;
@@ -232,6 +235,7 @@ module delimiter (
   end
 
   assign in_telegram_o = inside_q;
+  assign gap_clocks_o  = gap_q;
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin

@@ -12,17 +12,21 @@
 //   1. The verdict of the telegram delivered on the last clock (verdict_q, the model's
 //      `verdict`): a good one confirms a trial (locked), a bad one fails it: the lock taken
 //      back (the receiver and idle line of the lock from this clock on: edge_rx's hand-over
-//      without a detection, rate_idle's restore) or searching again. *_m: the state after it.
+//      without a detection; the lock's idle-line copy, after this clock's change, loaded into
+//      the first) or searching again. *_m: the state after it.
 //      The character decided on the last clock (edge_rx's registers) or detected goes to the
 //      delimiter.
 //   2. The idle clocks before a fall at the rate heard.
 //   3. The search, told the rate heard; a detection at another rate (not of the trial's own
-//      delimiter) starts a trial: the receiver handed over, the idle line loaded from the
-//      detecting channel, the lock kept as the fallback.
-//   4. Otherwise the receiver on the line at its rate; with no character under way, the
-//      delimiter's idle check. A telegram delivered (by its character or a gap) leaves its
-//      verdict for the next clock, unless a trial or a search replaces its receiver.
-//   5. The baud watchdog, between telegrams: its expiry searches again.
+//      delimiter) starts a trial: the receiver handed over (its first candidate at the
+//      detection's rate), the idle line loaded from the detecting channel, the lock kept as
+//      the fallback.
+//   4. Otherwise the receiver steps on the line at the rate heard; with no character under way
+//      as the clock began, the delimiter's idle check. A telegram delivered (by its character
+//      or a gap) leaves its verdict for the next clock, unless a trial or a search replaces
+//      its receiver.
+//   5. The baud watchdog, with no telegram or character under way as the clock began: its
+//      expiry searches again.
 // A reset of the delimiter or a rate's figures for it (use_rate) takes effect after its
 // character and its idle check, as the model's calls come; the watchdog's commands of the
 // clock come in order, the last one standing.
@@ -32,8 +36,14 @@
 //
 // What changed for hardware: ticks are 32 bits (the model's u64 truncated; every tick compared
 // is within 2^31 clocks of now), idle times 24 bits, saturating; a detection's start is its age
-// in the detecting channel's samples times that rate's period. Not yet for hardware: the five
-// stages are one clock, as the model's tick is (12.9 MHz on the HX8K, README "Gateware").
+// in the detecting channel's samples times that rate's period. In the model too, so that the
+// stages need not wait on each other in one clock: a telegram's verdict acts on the next
+// clock, and the idle check and the watchdog look at the receiver and the delimiter as the
+// clock began. In the RTL only: the idle copies take the clock's change at the rates they had
+// as it began (a lock taken back is loaded from its copy after that), the receiver steps at
+// the rate heard (a hand-over brings its own rate's start), the gap is compared as now less
+// the gap against each tick. Not yet for hardware: the search's detection and the trial it
+// starts share a clock (about 21 MHz on the HX8K, README "Gateware").
 
 `default_nettype none
 
@@ -193,17 +203,21 @@ module transceiver #(
   );
 
   // The idle line at the rate heard, and at the lock during a trial from it.
-  logic        idle_restore, idle_load, fb_load;
+  logic        idle_load, fb_load;
   logic [PendWidth-1:0] idle_load_left;
   logic [31:0] idle_load_since, idle_load_before;
-  logic [PendWidth-1:0] idle_left_unused, idle_left_e, fb_left, fb_left_e_unused;
+  logic [PendWidth-1:0] idle_left_unused, idle_left_e, fb_left_unused, fb_left_e;
   logic [31:0] idle_since_q, idle_since_e, idle_before_unused, idle_before_e;
-  logic [31:0] fb_since_q, fb_since_e_unused, fb_before_q, fb_before_e_unused;
+  logic [31:0] fb_since_q, fb_since_e, fb_before_unused, fb_before_e;
+  // Both copies take this clock's change at the rate they had as the clock began: a lock taken
+  // back on this clock is the fallback copy after its change (*_t, the rate heard's idle line
+  // after this clock's change), loaded into the first.
   rate_idle #(.PendWidth(PendWidth)) u_idle (
-    .clk_i, .rst_ni, .now_i(now_q), .glitch_i(rate_glitch(rate_m)),
-    .sample_i(rx_on_m && samples[rate_m]), .edge_i(changed[rate_m]), .level_i(level),
-    .restore_i(idle_restore), .restore_cancel_left_i(fb_left),
-    .restore_high_since_i(fb_since_q), .restore_high_before_i(fb_before_q),
+    .clk_i, .rst_ni, .now_i(now_q), .glitch_i(rate_glitch(rate_q)),
+    .sample_i(state_q != Searching && samples[rate_q]), .edge_i(changed[rate_q]),
+    .level_i(level),
+    .restore_i(1'b0), .restore_cancel_left_i('0), .restore_high_since_i('0),
+    .restore_high_before_i('0),
     .load_i(idle_load), .load_cancel_left_i(idle_load_left),
     .load_high_since_i(idle_load_since), .load_high_before_i(idle_load_before),
     .cancel_left_o(idle_left_unused), .high_since_o(idle_since_q),
@@ -217,18 +231,26 @@ module transceiver #(
     .sample_i(fb_live && samples[fb_rate_q]), .edge_i(changed[fb_rate_q]), .level_i(level),
     .restore_i(1'b0), .restore_cancel_left_i('0), .restore_high_since_i('0),
     .restore_high_before_i('0),
-    .load_i(fb_load), .load_cancel_left_i(idle_left_e), .load_high_since_i(idle_since_e),
-    .load_high_before_i(idle_before_e),
-    .cancel_left_o(fb_left), .high_since_o(fb_since_q), .high_before_o(fb_before_q),
-    .cancel_left_e_o(fb_left_e_unused), .high_since_e_o(fb_since_e_unused),
-    .high_before_e_o(fb_before_e_unused)
+    .load_i(fb_load), .load_cancel_left_i(idle_left_t), .load_high_since_i(idle_since_t),
+    .load_high_before_i(idle_before_t),
+    .cancel_left_o(fb_left_unused), .high_since_o(fb_since_q),
+    .high_before_o(fb_before_unused),
+    .cancel_left_e_o(fb_left_e), .high_since_e_o(fb_since_e), .high_before_e_o(fb_before_e)
   );
+  logic [PendWidth-1:0] idle_left_t;
+  logic [31:0]          idle_since_t, idle_before_t;
+  always_comb begin
+    idle_left_t   = restore_m ? fb_left_e : idle_left_e;
+    idle_since_t  = restore_m ? fb_since_e : idle_since_e;
+    idle_before_t = restore_m ? fb_before_e : idle_before_e;
+  end
 
   // The delimiter.
   logic        ch_valid, det_char;
   logic        dl_config, dl_reset, dl_idle_check;
   logic [3:0]  dl_config_rate;
-  logic [IW-1:0] idle_now;
+  logic        idle_over_gap;
+  logic [23:0] dl_gap;
   logic        dl_char_deliver_unused, dl_deliver, dl_inside_unused, dl_not_synced_unused;
   logic [3:0]  dl_char_status_unused, dl_status;
   logic [7:0]  dl_first;
@@ -240,7 +262,8 @@ module transceiver #(
     .char_error_i(det_char ? 3'd0 : rx_error),
     .char_idle_before_i(det_char ? {IW{1'b1}} : rx_char_idle),
     .char_end_i(det_char ? det_end_q : rx_end),
-    .idle_check_i(dl_idle_check), .idle_i(idle_now), .now_i(now_q),
+    .idle_check_i(dl_idle_check), .idle_over_gap_i(idle_over_gap), .now_i(now_q),
+    .gap_clocks_o(dl_gap),
     .char_deliver_o(dl_char_deliver_unused), .char_status_o(dl_char_status_unused),
     .first_o(dl_first),
     .inside_o(dl_inside_unused), .in_telegram_o,
@@ -311,8 +334,7 @@ module transceiver #(
     idle_before  = (rx_on_m && held_q[rate_m] && !rx_was_active)
                  ? idle_since(now_q, later(last_end_m, restore_m ? fb_since_q : idle_since_q))
                  : '0;
-    idle_restore = restore_m;
-    fb_live      = state_m == Trial && fb_valid_m;
+    fb_live      = state_q == Trial && fb_valid_q;
   end
 
   // 3. The search's detection: a trial at its rate.
@@ -382,18 +404,25 @@ module transceiver #(
 
   // 4. With no character under way at the receiver as the clock began, the delimiter's idle
   // check.
+  // The idle time now (the model's idle(): now less the later of the last end and the line's
+  // high tick, saturating at 24 bits) exceeds the gap when now less the gap passes both ticks:
+  // one subtraction a tick, against a bound worked out from registers (the gap is under 2^24
+  // clocks, each tick within 2^31 of now).
+  logic [31:0] gap_bound;
   always_comb begin
     dl_idle_check = rx_on_m && !switched && !rx_was_active;
-    idle_now      = held_d[rate_m] ? idle_since(now_q, later(last_end_m, idle_since_e)) : '0;
+    gap_bound     = now_q - 32'(dl_gap) - 32'd1;
+    idle_over_gap = held_d[rate_m] && $signed(gap_bound - last_end_m) >= 0
+                    && $signed(gap_bound - idle_since_t) >= 0;
   end
 
   // 5. The telegram's verdict for the next clock; the watchdog, checked between telegrams,
   // whose expiry searches again.
   always_comb begin
-    idle_load        = idle_load3;
-    idle_load_left   = s_pending_left;
-    idle_load_since  = det_end;
-    idle_load_before = det_end;
+    idle_load        = idle_load3 || restore_m;
+    idle_load_left   = idle_load3 ? s_pending_left : fb_left_e;
+    idle_load_since  = idle_load3 ? det_end : fb_since_e;
+    idle_load_before = idle_load3 ? det_end : fb_before_e;
     wd_start         = wd3_start;
     wd_stop          = wd3_stop;
     // Between telegrams: none under way as the clock began (in_telegram_o), so not on the

@@ -69,7 +69,8 @@ int main(int argc, char** argv) {
         top->char_error_i = in.u8();
         top->char_idle_before_i = in.u32();
         top->char_end_i = in.u32();
-        top->idle_i = in.u32();
+        uint32_t idle = in.u32();
+        top->idle_over_gap_i = idle > top->gap_clocks_o;
         top->now_i = in.u32();
         top->char_i = flags & 1;
         top->idle_check_i = (flags >> 1) & 1;
@@ -80,7 +81,7 @@ int main(int argc, char** argv) {
         uint32_t n = in.u32(), idle = in.u32(), now = in.u32();
         for (uint32_t i = 0; i < n; i++) {
           top->idle_check_i = 1;
-          top->idle_i = idle + i;
+          top->idle_over_gap_i = idle + i > top->gap_clocks_o;
           top->now_i = now + i;
           clock();
         }

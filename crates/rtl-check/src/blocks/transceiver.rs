@@ -300,16 +300,27 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
         }
         t
     };
-    // After a cut telegram, a low pulse of two bits at the lock's rate, which the lock's idle
-    // line (kept during the trial) takes: the lock goes on from it when the trial fails.
+    // After a cut telegram, a false start at the trial's rate (low for 0.4 of its bit, a
+    // quarter bit after the telegram): the line's high tick comes after the last character's
+    // end, and the gap counts from it. Then a low pulse of two bits at the lock's rate, which
+    // the lock's idle line (kept during the trial) takes: the lock goes on from it when the
+    // trial fails.
     let pulse = |tb: &mut Testbench| {
         tb.run_out(0, false);
         if let TrialEnd::Gap = end {
+            let lock_bit = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, lock).clocks_per_bit();
+            let other_bit = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, other).clocks_per_bit();
+            let false_start = FaultWindow {
+                start: tb.now() + 1 + other_bit / 4,
+                len: other_bit * 2 / 5,
+                fault: LineFault::Stuck(false),
+            };
             tb.bus.faults.add(FaultWindow {
-                start: tb.now() + 1,
-                len: 2 * BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, lock).clocks_per_bit(),
+                start: false_start.start + false_start.len + 1,
+                len: 2 * lock_bit,
                 fault: LineFault::Stuck(false),
             });
+            tb.bus.faults.add(false_start);
         }
     };
     let polls = |tb: &mut Testbench, rng: &mut ChaCha8Rng, n: usize| {

@@ -15,10 +15,12 @@
 // on the next clock, from registers (char_o and its fields): the transceiver's register
 // between the receiver's decision and the delimiter (Transceiver's `decided`). hand_over_i is
 // the search's hand-over of this clock instead of the act (EdgeRx::hand_over: the receiver
-// starts afresh, with this clock's fall, hand_over_idle_i the idle clocks before it: after
-// the detected character's end, or the line's at a lock taken back), clear_i the transceiver's
-// reset of it after everything else (a rate dropped or changed). A hand-over without a fall is
-// the transceiver's receiver reset before this clock (a new rate, or none).
+// starts afresh, with this clock's fall at its own rate, hand_over_fell_i, hand_over_idle_i
+// the idle clocks before it: after the detected character's end, or the line's at a lock
+// taken back; its first candidate's reader starts from the hand-over's figures, which may be
+// another rate's than the step's), clear_i the transceiver's reset of it after everything else
+// (a rate dropped or changed). A hand-over without a fall is the transceiver's receiver reset
+// before this clock (a new rate, or none).
 //
 // Two lanes of two slots: the lane cur_q the character under way, the other the next one, whose
 // candidates the falls from next_from on open while the current one's decision is pending; at

@@ -416,8 +416,9 @@ module transceiver #(
                     && $signed(gap_bound - idle_since_t) >= 0;
   end
 
-  // 5. The telegram's verdict for the next clock; the watchdog, checked between telegrams,
-  // whose expiry searches again.
+  // 5. The idle line's load (a detection's, stage 3, before a lock taken back, stage 1); the
+  // watchdog, checked between telegrams, whose expiry searches again; the telegram's verdict
+  // for the next clock.
   always_comb begin
     idle_load        = idle_load3 || restore_m;
     idle_load_left   = idle_load3 ? s_pending_left : fb_left_e;
@@ -454,7 +455,7 @@ module transceiver #(
       det_q         <= 1'b0;
       det_byte_q    <= '0;
       det_end_q     <= '0;
-      verdict_q     <= 1'b0;
+      verdict_q          <= 1'b0;
       verdict_good_q     <= 1'b0;
       verdict_confirms_q <= 1'b0;
       held_q        <= '1;
@@ -469,7 +470,7 @@ module transceiver #(
       det_q         <= det_d;
       det_byte_q    <= det_byte_d;
       det_end_q     <= det_end_d;
-      verdict_q     <= verdict_d;
+      verdict_q          <= verdict_d;
       verdict_good_q     <= verdict_good_d;
       verdict_confirms_q <= verdict_confirms_d;
       held_q        <= held_d;

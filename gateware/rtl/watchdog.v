@@ -28,15 +28,15 @@ module watchdog #(
 
   // The commands come late in the transceiver's clock: what a start and the registers each
   // give is worked out apart, and the commands only choose (one LUT level after them).
-  logic             starts, due_q, expired;
+  logic             starts, due, expired;
   logic [Width-1:0] left_after_start, left_after_clock;
 
   always_comb begin
     starts           = start_i || (start_if_stopped_i && !running_q);
-    due_q            = running_q && left_q == '0;
+    due              = running_q && left_q == '0;
     left_after_start = clocks_i != '0 ? clocks_i - 1'b1 : '0;
     left_after_clock = left_q != '0 ? left_q - 1'b1 : '0;
-    expired   = check_i && !stop_i && (starts ? clocks_i == '0 : due_q);
+    expired   = check_i && !stop_i && (starts ? clocks_i == '0 : due);
     running_d = !stop_i && (starts || running_q) && !expired;
     // Stopped, or due: 0 (the model's left() is None, or 0).
     left_d    = !running_d ? '0 : starts ? left_after_start : left_after_clock;

@@ -25,7 +25,7 @@ module edge_rx_fit (
     now_q     <= now_q + 32'd1;
   end
 
-  logic        char_, active, active_next, deciding, next_active, next_from_valid;
+  logic        char_, active, next_active, next_from_valid;
   logic [7:0]  byte_;
   logic [2:0]  error;
   logic [31:0] start, end_;
@@ -50,16 +50,16 @@ module edge_rx_fit (
     .clear_i,
     .char_o(char_), .char_byte_o(byte_), .char_error_o(error), .char_start_o(start),
     .char_end_o(end_), .char_idle_before_o(idle_before), .active_o(active),
-    .active_next_o(active_next), .deciding_o(deciding), .deadline_o(deadline), .stage_o(stage),
+    .deadline_o(deadline), .stage_o(stage),
     .next_active_o(next_active), .next_from_valid_o(next_from_valid), .next_from_o(next_from)
   );
 
-  localparam int OutWidth = 1 + 8 + 3 + 32 + 32 + 24 + 1 + 1 + 1 + 18 + 2 + 1 + 1 + 18;
+  localparam int OutWidth = 1 + 8 + 3 + 32 + 32 + 24 + 1 + 18 + 2 + 1 + 1 + 18;
   logic [OutWidth-1:0] out_q;
   logic                fold_q;
   always_ff @(posedge clk_i) begin
-    out_q  <= {char_, byte_, error, start, end_, idle_before, active, active_next, deciding, deadline,
-               stage, next_active, next_from_valid, next_from};
+    out_q  <= {char_, byte_, error, start, end_, idle_before, active, deadline, stage, next_active,
+               next_from_valid, next_from};
     fold_q <= ^out_q;
   end
   assign fold_o = fold_q;

@@ -7,10 +7,7 @@
 // this clock, in the model's order: a character (on_char, with the idle clocks before it), then
 // the idle check (on_idle, on every clock the receiver is not inside a character), then a reset
 // or a rate's configuration (Delimiter::reset, Delimiter::new's figures). The outputs are what
-// those calls return, in the same clock; the character's own (char_*_o) are also given apart,
-// from the character and the registers only, for the transceiver acts on them before it knows
-// whether the idle check runs (three always_comb blocks, so that no output of the character's
-// depends on the later inputs).
+// those calls return, in the same clock (three always_comb blocks, one a call).
 //
 // What changed for hardware: the model sums the FCS over its buffer when the telegram is
 // complete; here fcs_q sums the body as the characters come, and fcs_ok_q keeps whether the FCS
@@ -42,14 +39,9 @@ module delimiter (
   input  wire [31:0] now_i,
   // The gap inside a telegram now, in clocks (what idle_over_gap_i compares with).
   output wire [23:0] gap_clocks_o,
-  // The character's delivery alone (Delivery::Telegram from on_char), its status and the
-  // telegram's first byte (an SC does not confirm a rate).
-  output logic       char_deliver_o,
-  output logic [3:0] char_status_o,
+  // The telegram's first byte (an SC does not confirm a rate).
   output logic [7:0] first_o,
-  // A telegram under way after the character and the idle check (before a reset), and as the
-  // last clock left it (the register).
-  output logic       inside_o,
+  // A telegram under way as the last clock left it (the register).
   output wire        in_telegram_o,
   // Delivery::Telegram and Delivery::NotSynced of this clock, the telegram's status (0 good,
   // 1-4 a character error as char_error_i, 5 gap, 6 bad delimiter, 7 length mismatch, 8 bad
@@ -88,8 +80,9 @@ module delimiter (
   logic [7:0] len_base, expect_base, first_now, index_fcs;
   logic       has_fcs, in_body;
 
-  // After the character.
-  logic        inside_c;
+  // After the character: its delivery alone (Delivery::Telegram from on_char) and its status.
+  logic        char_deliver, inside_c;
+  logic [3:0]  char_status;
   logic [31:0] char_end;
 
   always_comb begin
@@ -100,9 +93,9 @@ module delimiter (
     le_d         = le_q;
     fcs_d        = fcs_q;
     fcs_ok_d     = fcs_ok_q;
-    char_deliver_o = 1'b0;
+    char_deliver = 1'b0;
     not_synced_o   = 1'b0;
-    char_status_o  = StGood;
+    char_status  = StGood;
     char_end     = '0;
     wr_o         = 1'b0;
     wr_addr_o    = len_q;
@@ -120,7 +113,7 @@ module delimiter (
       if (inside_q) begin
         if (char_idle_before_i > gap_q) begin
           ends     = 1'b1;
-          char_status_o = StGap;
+          char_status = StGap;
         end else begin
           appending = 1'b1;
         end
@@ -134,7 +127,7 @@ module delimiter (
         fcs_ok_d = 1'b0;
         if (char_error_i != 3'd0) begin
           ends     = 1'b1;
-          char_status_o = {1'b0, char_error_i};
+          char_status = {1'b0, char_error_i};
         end else begin
           appending = 1'b1;
           case (char_byte_i)
@@ -150,7 +143,7 @@ module delimiter (
               wr_addr_o = 8'd0;
               len_d     = 8'd1;
               ends     = 1'b1;
-              char_status_o = StBadDelimiter;
+              char_status = StBadDelimiter;
             end
           endcase
           expect_d = expect_base;
@@ -161,7 +154,7 @@ module delimiter (
     if (appending) begin
       if (char_error_i != 3'd0) begin
         ends     = 1'b1;
-        char_status_o = {1'b0, char_error_i};
+        char_status = {1'b0, char_error_i};
       end else begin
         wr_o      = 1'b1;
         wr_addr_o = len_base;
@@ -181,15 +174,15 @@ module delimiter (
         if (first_now == SD2 && len_base == 8'd1
             && (char_byte_i < 8'd4 || char_byte_i > 8'd249)) begin
           ends     = 1'b1;
-          char_status_o = StBadLength;
+          char_status = StBadLength;
         end else if (first_now == SD2 && len_base == 8'd1) begin
           le_d = char_byte_i;
         end else if (first_now == SD2 && len_base == 8'd2 && char_byte_i != le_q) begin
           ends     = 1'b1;
-          char_status_o = StLengthMismatch;
+          char_status = StLengthMismatch;
         end else if (first_now == SD2 && len_base == 8'd3 && char_byte_i != SD2) begin
           ends     = 1'b1;
-          char_status_o = StLengthMismatch;
+          char_status = StLengthMismatch;
         end else begin
           if (first_now == SD2 && len_base == 8'd2) begin
             // LE was checked to be at most 249: LE + 6 fits.
@@ -198,10 +191,10 @@ module delimiter (
           end
           if (expect_base != 8'd0 && len_base + 8'd1 >= expect_base) begin
             ends = 1'b1;
-            if (!has_fcs)                 char_status_o = StGood;
-            else if (!fcs_ok_d)           char_status_o = StBadFcs;
-            else if (char_byte_i != ED)   char_status_o = StNoEnd;
-            else                          char_status_o = StGood;
+            if (!has_fcs)                 char_status = StGood;
+            else if (!fcs_ok_d)           char_status = StBadFcs;
+            else if (char_byte_i != ED)   char_status = StNoEnd;
+            else                          char_status = StGood;
           end
         end
       end
@@ -209,7 +202,7 @@ module delimiter (
 
     // A character that ends the telegram delivers it, at its end tick.
     if (ends) begin
-      char_deliver_o = 1'b1;
+      char_deliver = 1'b1;
       char_end  = char_end_i;
       inside_c  = 1'b0;
     end
@@ -217,21 +210,21 @@ module delimiter (
     first_o = first_now;
   end
 
-  // on_idle, after the character.
-  logic gap;
+  // on_idle, after the character: a telegram still under way (before a reset).
+  logic gap, inside_after;
   always_comb begin
-    gap       = idle_check_i && inside_c && idle_over_gap_i;
-    inside_o  = inside_c && !gap;
-    deliver_o = char_deliver_o || gap;
-    status_o  = gap ? StGap : char_status_o;
-    end_o     = gap ? now_i : char_end;
+    gap          = idle_check_i && inside_c && idle_over_gap_i;
+    inside_after = inside_c && !gap;
+    deliver_o    = char_deliver || gap;
+    status_o     = gap ? StGap : char_status;
+    end_o        = gap ? now_i : char_end;
   end
 
   // Then a reset or a rate's figures.
   always_comb begin
     tsyn_d   = config_i ? tsyn_clocks_i : tsyn_q;
     gap_d    = config_i ? gap_clocks_i : gap_q;
-    inside_d = inside_o && !config_i && !reset_i;
+    inside_d = inside_after && !config_i && !reset_i;
   end
 
   assign in_telegram_o = inside_q;

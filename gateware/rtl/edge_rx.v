@@ -82,12 +82,8 @@ module edge_rx #(
   output logic [31:0]           char_start_o,
   output logic [31:0]           char_end_o,
   output logic [IdleWidth-1:0]  char_idle_before_o,
-  // A character under way (EdgeRxQ::active), after the last clock and as this clock leaves it.
+  // A character under way (EdgeRxQ::active), as the last clock left it.
   output wire                   active_o,
-  output wire                   active_next_o,
-  // A character decided on this clock (out on the next): with active_next_o, whether one is
-  // under way as this clock leaves it.
-  output wire                   deciding_o,
   // For the checker: the current lane's deadline and stage, the next lane under way,
   // next_from (ticks of TickWidth bits).
   output wire [TickWidth-1:0]   deadline_o,
@@ -589,8 +585,6 @@ module edge_rx #(
   end
 
   assign active_o          = cur_q ? live_q[3:2] != 2'b00 : live_q[1:0] != 2'b00;
-  assign deciding_o        = char_d;
-  assign active_next_o     = cur_d ? live_d[3:2] != 2'b00 : live_d[1:0] != 2'b00;
   assign deadline_o        = cur_q ? deadline_q[TW +: TW] : deadline_q[0 +: TW];
   assign stage_o           = cur_q ? stage_q[3:2] : stage_q[1:0];
   assign next_active_o     = cur_q ? live_q[1:0] != 2'b00 : live_q[3:2] != 2'b00;

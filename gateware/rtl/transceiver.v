@@ -153,7 +153,7 @@ module transceiver #(
   logic [2:0]  rx_error;
   logic [31:0] rx_start_unused, rx_end;
   logic [IW-1:0] rx_char_idle;
-  logic        rx_active, rx_active_next_unused, rx_deciding_unused;
+  logic        rx_active;
   logic [17:0] rx_deadline_unused, rx_next_from_unused;
   logic [1:0]  rx_stage_unused;
   logic        rx_next_active_unused, rx_next_from_valid_unused;
@@ -196,7 +196,7 @@ module transceiver #(
     .clear_i(1'b0),
     .char_o(rx_char), .char_byte_o(rx_byte), .char_error_o(rx_error),
     .char_start_o(rx_start_unused), .char_end_o(rx_end), .char_idle_before_o(rx_char_idle),
-    .active_o(rx_active), .active_next_o(rx_active_next_unused), .deciding_o(rx_deciding_unused),
+    .active_o(rx_active),
     .deadline_o(rx_deadline_unused), .stage_o(rx_stage_unused),
     .next_active_o(rx_next_active_unused), .next_from_valid_o(rx_next_from_valid_unused),
     .next_from_o(rx_next_from_unused)
@@ -251,8 +251,8 @@ module transceiver #(
   logic [3:0]  dl_config_rate;
   logic        idle_over_gap;
   logic [23:0] dl_gap;
-  logic        dl_char_deliver_unused, dl_deliver, dl_inside_unused, dl_not_synced_unused;
-  logic [3:0]  dl_char_status_unused, dl_status;
+  logic        dl_deliver, dl_not_synced_unused;
+  logic [3:0]  dl_status;
   logic [7:0]  dl_first;
   delimiter u_delimiter (
     .clk_i, .rst_ni,
@@ -264,9 +264,7 @@ module transceiver #(
     .char_end_i(det_char ? det_end_q : rx_end),
     .idle_check_i(dl_idle_check), .idle_over_gap_i(idle_over_gap), .now_i(now_q),
     .gap_clocks_o(dl_gap),
-    .char_deliver_o(dl_char_deliver_unused), .char_status_o(dl_char_status_unused),
-    .first_o(dl_first),
-    .inside_o(dl_inside_unused), .in_telegram_o,
+    .first_o(dl_first), .in_telegram_o,
     .deliver_o(dl_deliver), .not_synced_o(dl_not_synced_unused), .status_o(dl_status),
     .len_o, .end_o, .wr_o, .wr_addr_o, .wr_data_o
   );

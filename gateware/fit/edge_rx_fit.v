@@ -17,7 +17,7 @@ module edge_rx_fit (
   output wire fold_o
 );
   localparam int PW = 7;
-  localparam int FiguresWidth = 7 * PW + (PW + 1) + 3 * 16 + 24 + 24;
+  localparam int FiguresWidth = 7 * PW + (PW + 1) + 3 * 16 + 24 + 24 + 1;
   logic [FiguresWidth-1:0] figures_q;
   logic [31:0]             now_q;
   always_ff @(posedge clk_i) begin
@@ -43,7 +43,13 @@ module edge_rx_fit (
     .stop_end_i(figures_q[Offsets + 32 +: 16]), .step_i, .level_i, .edge_i,
     .idle_before_i(figures_q[Offsets + 48 +: 24]), .hand_over_i,
     .hand_over_idle_i(figures_q[Offsets + 72 +: 24]),
-    .hand_over_fell_i(edge_i && !level_i), .hand_over_modulo_i(figures_q[PW +: PW]),
+    .hand_over_fell_i(edge_i && !level_i), .hand_over_fell_last_i(figures_q[Offsets + 96]),
+    .hand_over_step_i(step_i), .hand_over_level_i(level_i), .hand_over_edge_i(edge_i),
+    .hand_over_inc_i(figures_q[0 +: PW]), .hand_over_two_inc_i(figures_q[7*PW +: PW + 1]),
+    .hand_over_quarter_i(figures_q[2*PW +: PW]),
+    .hand_over_three_quarters_i(figures_q[3*PW +: PW]),
+    .hand_over_half_less_inc_i(figures_q[4*PW +: PW]),
+    .hand_over_modulo_i(figures_q[PW +: PW]),
     .hand_over_modulo_less_inc_i(figures_q[5*PW +: PW]),
     .hand_over_modulo_less_two_inc_i(figures_q[6*PW +: PW]),
     .hand_over_start_end_i(figures_q[Offsets +: 16]),

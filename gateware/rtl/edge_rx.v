@@ -14,13 +14,15 @@
 // way falls due (its deadline reached), which may decide a character. The character goes out
 // on the next clock, from registers (char_o and its fields): the transceiver's register
 // between the receiver's decision and the delimiter (Transceiver's `decided`). hand_over_i is
-// the search's hand-over of this clock instead of the act (EdgeRx::hand_over: the receiver
-// starts afresh, with this clock's fall at its own rate, hand_over_fell_i, hand_over_idle_i
-// the idle clocks before it: after the detected character's end, or the line's at a lock
-// taken back; its first candidate's reader starts from the hand-over's figures, which may be
-// another rate's than the step's), clear_i the transceiver's reset of it after everything else
-// (a rate dropped or changed). A hand-over without a fall is the transceiver's receiver reset
-// before this clock (a new rate, or none).
+// a hand-over instead of this clock's act (EdgeRx::hand_over: the receiver starts afresh, with
+// a fall at its own rate, hand_over_fell_i, hand_over_idle_i the idle clocks before it: after
+// the detected character's end, or the line's at a lock taken back; its first candidate's
+// reader starts from the hand-over's figures, which may be another rate's than the step's).
+// The search's detection is acted on a clock after it (Transceiver's `detection`): its
+// hand-over is of the last clock, then this clock's step at its rate (hand_over_fell_last_i,
+// a fall there; hand_over_fell_i, one on this clock). clear_i is the transceiver's reset of
+// it after everything else (a rate dropped or changed). A hand-over without a fall is the
+// transceiver's receiver reset before this clock (a new rate, or none).
 //
 // Two lanes of two slots: the lane cur_q the character under way, the other the next one, whose
 // candidates the falls from next_from on open while the current one's decision is pending; at
@@ -66,10 +68,21 @@ module edge_rx #(
   input  wire [IdleWidth-1:0]   idle_before_i,
   input  wire                   hand_over_i,
   input  wire [IdleWidth-1:0]   hand_over_idle_i,
-  // The hand-over's own rate, which may not be the step's: its fall on this clock, and the
-  // figures its first candidate starts from (a reader's start, the start bit's end).
+  // The hand-over's own rate, which may not be the step's: its fall on this clock, or, for a
+  // hand-over of the last clock, on that one (hand_over_fell_last_i: the candidate started
+  // there, and its reader takes this clock's sample at the hand-over's rate, *_step, *_level
+  // and *_edge); the figures its first candidate's reader and start bit's end are made of.
   input  wire                   hand_over_fell_i,
+  input  wire                   hand_over_fell_last_i,
+  input  wire                   hand_over_step_i,
+  input  wire                   hand_over_level_i,
+  input  wire                   hand_over_edge_i,
+  input  wire [PhaseWidth-1:0]  hand_over_inc_i,
+  input  wire [PhaseWidth:0]    hand_over_two_inc_i,
   input  wire [PhaseWidth-1:0]  hand_over_modulo_i,
+  input  wire [PhaseWidth-1:0]  hand_over_quarter_i,
+  input  wire [PhaseWidth-1:0]  hand_over_three_quarters_i,
+  input  wire [PhaseWidth-1:0]  hand_over_half_less_inc_i,
   input  wire [PhaseWidth-1:0]  hand_over_modulo_less_inc_i,
   input  wire [PhaseWidth-1:0]  hand_over_modulo_less_two_inc_i,
   input  wire [OffsetWidth-1:0] hand_over_start_end_i,
@@ -269,6 +282,27 @@ module edge_rx #(
         ? (level_i ? readers_q[k*RW + LeadAt + PW] : readers_q[k*RW + LagAt + PW])
         : start_low_b[k];
   end
+
+  // The hand-over's first reader: started (char_reader_step's start, at the hand-over's
+  // rate), and that start stepped on this clock's sample, for a fall on the last clock. A
+  // start bit is longer than one sample, so the step decides no start bit (start_low stays).
+  // Both starts' ticks and start bits' ends are worked out, and the fall's clock only chooses.
+  logic [TW-1:0] hand_over_start, hand_over_start_end_now, hand_over_start_end_last;
+  logic [RW-1:0] hand_over_started, hand_over_stepped;
+  assign hand_over_start          = hand_over_fell_last_i ? now - TW'(1) : now;
+  assign hand_over_start_end_now  = now + TW'(hand_over_start_end_i);
+  assign hand_over_start_end_last = now + TW'(hand_over_start_end_i) - TW'(1);
+  assign hand_over_started = {4'd0, hand_over_modulo_less_inc_i,
+                              {1'b0, hand_over_modulo_less_two_inc_i},
+                              -{1'b0, hand_over_modulo_i}, 11'd0, 1'b0, 2'd0, 1'b0, PW'(0)};
+  char_reader_step #(.PhaseWidth(PW)) u_hand_over_step (
+    .inc_i(hand_over_inc_i), .modulo_i(hand_over_modulo_i), .quarter_i(hand_over_quarter_i),
+    .three_quarters_i(hand_over_three_quarters_i), .half_less_inc_i(hand_over_half_less_inc_i),
+    .two_inc_i(hand_over_two_inc_i), .modulo_less_inc_i(hand_over_modulo_less_inc_i),
+    .modulo_less_two_inc_i(hand_over_modulo_less_two_inc_i),
+    .step_i(hand_over_step_i), .start_i(1'b0), .level_i(hand_over_level_i),
+    .edge_i(hand_over_edge_i), .state_i(hand_over_started), .state_o(hand_over_stepped)
+  );
 
   // ---- act: the current lane at its deadline. ----
   // What a candidate reads, the line lasting at a level, from its reader's bit count, shift
@@ -520,18 +554,18 @@ module edge_rx #(
       next_from_valid_d = 1'b0;
       idle_pending_d    = 1'b0;
       due_d             = '0;
-      if (hand_over_i && !clear_i && hand_over_fell_i) begin
-        // This clock's fall opens the character after the one the search decided, in slot 0
-        // of lane 0, its reader started at the hand-over's rate (char_reader_step's start).
+      if (hand_over_i && !clear_i && (hand_over_fell_i || hand_over_fell_last_i)) begin
+        // The fall opens the character after the one the search decided, in slot 0 of lane
+        // 0, its reader started at the hand-over's rate (and stepped on this clock's sample
+        // when the fall was on the last clock).
         live_d[1:0]         = 2'b01;
-        starts_d[0 +: TW]   = now;
+        starts_d[0 +: TW]   = hand_over_start;
         start_low_d[0]      = 1'b0;
-        opened_d[0 +: TW]   = now;
+        opened_d[0 +: TW]   = hand_over_start;
         idle_d[0 +: IW]     = hand_over_idle_i;
-        deadline_d[0 +: TW] = now + TW'(hand_over_start_end_i);
-        readers_d[0 +: RW]  = {4'd0, hand_over_modulo_less_inc_i,
-                               {1'b0, hand_over_modulo_less_two_inc_i},
-                               -{1'b0, hand_over_modulo_i}, 11'd0, 1'b0, 2'd0, 1'b0, PW'(0)};
+        deadline_d[0 +: TW] = hand_over_fell_last_i ? hand_over_start_end_last
+                                                    : hand_over_start_end_now;
+        readers_d[0 +: RW]  = hand_over_fell_last_i ? hand_over_stepped : hand_over_started;
       end
     end
   end

@@ -17,10 +17,11 @@
 //      The character decided on the last clock (edge_rx's registers) or detected goes to the
 //      delimiter.
 //   2. The idle clocks before a fall at the rate heard.
-//   3. The search, told the rate heard; a detection at another rate (not of the trial's own
-//      delimiter) starts a trial: the receiver handed over (its first candidate at the
-//      detection's rate), the idle line loaded from the detecting channel, the lock kept as
-//      the fallback.
+//   3. The search, told the rate heard; its detection is registered (dp_*_q, the model's
+//      `detection`) and acted on the next clock: one at another rate (not of the trial's own
+//      delimiter) starts a trial there: the receiver handed over as of the detection's clock
+//      (a fall then at its rate steps the reader it starts), the idle line loaded from the
+//      detecting channel and taking this clock's change, the lock kept as the fallback.
 //   4. Otherwise the receiver steps on the line at the rate heard; with no character under way
 //      as the clock began, the delimiter's idle check. A telegram delivered (by its character
 //      or a gap) leaves its verdict for the next clock, unless a trial or a search replaces
@@ -42,8 +43,9 @@
 // clock began. In the RTL only: the idle copies take the clock's change at the rates they had
 // as it began (a lock taken back is loaded from its copy after that), the receiver steps at
 // the rate heard (a hand-over brings its own rate's start), the gap is compared as now less
-// the gap against each tick. Not yet for hardware: the search's detection and the trial it
-// starts share a clock (about 21 MHz on the HX8K, README "Gateware").
+// the gap against each tick. The search's detection is acted on one clock after it (model
+// and RTL): the search's compare-all-rates and the trial it starts no longer share a clock
+// (README "Gateware" has the clock rate step by step).
 
 `default_nettype none
 
@@ -107,6 +109,15 @@ module transceiver #(
   logic [31:0] trial_since_q, trial_since_d;
   logic [31:0] last_end_q, last_end_d;
   logic        det_q, det_d;
+  // The search's detection on the last clock (the model's `detection`): acted on on this one.
+  logic        dp_valid_q;
+  logic [3:0]  dp_rate_q;
+  logic [7:0]  dp_byte_q;
+  logic [15:0] dp_age_q;
+  logic [PendWidth-1:0] dp_left_q;
+  logic        dp_fell_q;
+  // Its clock, start and end (stage 3).
+  logic [31:0] det_at, det_start, det_end;
   logic [7:0]  det_byte_q, det_byte_d;
   logic [31:0] det_end_q, det_end_d;
   logic        verdict_q, verdict_d, verdict_good_q, verdict_good_d;
@@ -147,7 +158,7 @@ module transceiver #(
   // ---- Blocks driven below ----
   // The receiver.
   logic        rx_hand_over;
-  logic [IW-1:0] rx_hand_over_idle, idle_before;
+  logic [IW-1:0] rx_hand_over_idle, idle_before, idle_before_restore;
   logic        rx_char;
   logic [7:0]  rx_byte;
   logic [2:0]  rx_error;
@@ -157,25 +168,19 @@ module transceiver #(
   logic [17:0] rx_deadline_unused, rx_next_from_unused;
   logic [1:0]  rx_stage_unused;
   logic        rx_next_active_unused, rx_next_from_valid_unused;
-  // The step at the rate heard; a hand-over starts its first candidate at its own rate, the
-  // detection's or the rate heard's (a reset), chosen last.
+  // The step at the rate as the clock began (a lock taken back on this clock is a hand-over,
+  // which replaces what the step does); a hand-over starts its first candidate at its own
+  // rate, the detection's or the rate heard's after the verdict, chosen last.
   logic [RateReaderWidth-1:0] reader;
-  // Of the detection's rate only a start's figures are read.
+  // The hand-over's figures: the detection's rate's while there is one (a detection not acted
+  // on is of the rate heard, whose figures these are then), the rate heard's otherwise. Not
+  // chosen by whether the detection is acted on: that comes late in the clock.
   /* verilator lint_off UNUSEDSIGNAL */
-  logic [RateReaderWidth-1:0] det_reader;
+  logic [RateReaderWidth-1:0] ho_reader;
   /* verilator lint_on UNUSEDSIGNAL */
-  logic        rx_hand_over_fell;
-  logic [PW-1:0] ho_modulo, ho_modulo_less_inc, ho_modulo_less_two_inc;
-  logic [15:0] ho_start_end;
-  assign reader                 = rate_reader(rate_m);
-  assign det_reader             = rate_reader(s_rate);
-  assign ho_modulo              = switched ? det_reader[RdModulo +: PW] : reader[RdModulo +: PW];
-  assign ho_modulo_less_inc     = switched ? det_reader[RdModuloLessInc +: PW]
-                                           : reader[RdModuloLessInc +: PW];
-  assign ho_modulo_less_two_inc = switched ? det_reader[RdModuloLessTwoInc +: PW]
-                                           : reader[RdModuloLessTwoInc +: PW];
-  assign ho_start_end           = switched ? det_reader[RdStartEnd +: 16]
-                                           : reader[RdStartEnd +: 16];
+  logic        rx_hand_over_fell, rx_hand_over_fell_last;
+  assign reader    = rate_reader(rate_q);
+  assign ho_reader = rate_reader(dp_valid_q ? dp_rate_q : rate_m);
   edge_rx #(.PhaseWidth(PW)) u_rx (
     .clk_i, .rst_ni, .now_i(now_q),
     .inc_i(reader[RdInc +: PW]), .two_inc_i(reader[RdTwoInc +: PW + 1]),
@@ -186,13 +191,21 @@ module transceiver #(
     .modulo_less_two_inc_i(reader[RdModuloLessTwoInc +: PW]),
     .start_end_i(reader[RdStartEnd +: 16]), .stop_middle_i(reader[RdStopMiddle +: 16]),
     .stop_end_i(reader[RdStopEnd +: 16]),
-    .step_i(samples[rate_m]), .level_i(held_d[rate_m]), .edge_i(changed[rate_m]),
+    .step_i(samples[rate_q]), .level_i(held_d[rate_q]), .edge_i(changed[rate_q]),
     .idle_before_i(idle_before), .hand_over_i(rx_hand_over),
     .hand_over_idle_i(rx_hand_over_idle),
-    .hand_over_fell_i(rx_hand_over_fell),
-    .hand_over_modulo_i(ho_modulo), .hand_over_modulo_less_inc_i(ho_modulo_less_inc),
-    .hand_over_modulo_less_two_inc_i(ho_modulo_less_two_inc),
-    .hand_over_start_end_i(ho_start_end),
+    .hand_over_fell_i(rx_hand_over_fell), .hand_over_fell_last_i(rx_hand_over_fell_last),
+    // A fall on the last clock is the detection's: this clock's sample at its rate.
+    .hand_over_step_i(samples[dp_rate_q]), .hand_over_level_i(held_d[dp_rate_q]),
+    .hand_over_edge_i(changed[dp_rate_q]),
+    .hand_over_inc_i(ho_reader[RdInc +: PW]), .hand_over_two_inc_i(ho_reader[RdTwoInc +: PW + 1]),
+    .hand_over_quarter_i(ho_reader[RdQuarter +: PW]),
+    .hand_over_three_quarters_i(ho_reader[RdThreeQuarters +: PW]),
+    .hand_over_half_less_inc_i(ho_reader[RdHalfLessInc +: PW]),
+    .hand_over_modulo_i(ho_reader[RdModulo +: PW]),
+    .hand_over_modulo_less_inc_i(ho_reader[RdModuloLessInc +: PW]),
+    .hand_over_modulo_less_two_inc_i(ho_reader[RdModuloLessTwoInc +: PW]),
+    .hand_over_start_end_i(ho_reader[RdStartEnd +: 16]),
     .clear_i(1'b0),
     .char_o(rx_char), .char_byte_o(rx_byte), .char_error_o(rx_error),
     .char_start_o(rx_start_unused), .char_end_o(rx_end), .char_idle_before_o(rx_char_idle),
@@ -236,6 +249,20 @@ module transceiver #(
     .cancel_left_o(fb_left_unused), .high_since_o(fb_since_q),
     .high_before_o(fb_before_unused),
     .cancel_left_e_o(fb_left_e), .high_since_e_o(fb_since_e), .high_before_e_o(fb_before_e)
+  );
+  // The detection's idle line: the detecting channel's as the last clock left it, through this
+  // clock's change at its rate (only its values after the change are read).
+  logic [PendWidth-1:0] det_left_unused, det_left_e;
+  logic [31:0] det_since_unused, det_since_e, det_before_unused, det_before_e;
+  rate_idle #(.PendWidth(PendWidth)) u_det_idle (
+    .clk_i, .rst_ni, .now_i(now_q), .glitch_i(rate_glitch(dp_rate_q)),
+    .sample_i(samples[dp_rate_q]), .edge_i(changed[dp_rate_q]), .level_i(level),
+    .restore_i(1'b1), .restore_cancel_left_i(dp_left_q), .restore_high_since_i(det_end),
+    .restore_high_before_i(det_end),
+    .load_i(1'b0), .load_cancel_left_i('0), .load_high_since_i('0), .load_high_before_i('0),
+    .cancel_left_o(det_left_unused), .high_since_o(det_since_unused),
+    .high_before_o(det_before_unused),
+    .cancel_left_e_o(det_left_e), .high_since_e_o(det_since_e), .high_before_e_o(det_before_e)
   );
   logic [PendWidth-1:0] idle_left_t;
   logic [31:0]          idle_since_t, idle_before_t;
@@ -324,31 +351,34 @@ module transceiver #(
   end
 
   // 2. The idle clocks before a fall at the rate heard (a receiver reset before this clock has
-  // nothing under way).
+  // nothing under way): for the step at the rate as the clock began, and for a lock taken back
+  // (its receiver handed over), worked out apart and chosen by the verdict last.
   logic rx_was_active;
   always_comb begin
     // A character under way as the clock began (a lock taken back starts afresh).
     rx_was_active = rx_active && !restore_m;
-    idle_before  = (rx_on_m && held_q[rate_m] && !rx_was_active)
-                 ? idle_since(now_q, later(last_end_m, restore_m ? fb_since_q : idle_since_q))
-                 : '0;
-    fb_live      = state_q == Trial && fb_valid_q;
+    idle_before   = (held_q[rate_q] && !rx_active)
+                  ? idle_since(now_q, later(last_end_m, idle_since_q)) : '0;
+    idle_before_restore = held_q[fb_rate_q]
+                        ? idle_since(now_q, later(last_end_m, fb_since_q)) : '0;
+    fb_live       = state_q == Trial && fb_valid_q;
   end
 
-  // 3. The search's detection: a trial at its rate.
+  // 3. The search's detection of the last clock: a trial at its rate. This clock's is kept for
+  // the next.
   logic        det, ignored, switched;
-  logic [31:0] det_start, det_end;
   logic [1:0]  state3;
   logic [3:0]  rate3;
   logic        fb_valid3, idle_load3;
   logic        wd3_start, wd3_stop, cfg3, rst3;
   logic [3:0]  cfg3_rate;
   always_comb begin
-    det       = s_valid && s_detect;
-    det_start = now_q - rate_age_clocks(s_rate, s_age);
-    det_end   = det_start + 32'(rate_stop_end(s_rate));
+    det       = dp_valid_q;
+    det_at    = now_q - 32'd1;
+    det_start = det_at - rate_age_clocks(dp_rate_q, dp_age_q);
+    det_end   = det_start + 32'(rate_stop_end(dp_rate_q));
     // The receiver's own rate, or the trial's own start delimiter read at a slower rate.
-    ignored   = (rx_on_m && rate_m == s_rate)
+    ignored   = (rx_on_m && rate_m == dp_rate_q)
              || (state_m == Trial && $signed(det_start - trial_since_q) <= 0);
     switched  = det && !ignored;
     state3        = state_m;
@@ -368,8 +398,12 @@ module transceiver #(
     cfg3_rate     = rate_m;
     rst3          = rst1;
     rx_hand_over      = !rx_on_m || restore_m;
-    rx_hand_over_idle = idle_before;
-    rx_hand_over_fell = changed[rate_m] && !held_d[rate_m];
+    rx_hand_over_idle = restore_m ? idle_before_restore : '0;
+    // A fall at the hand-over's rate (as its figures: the same rate whenever a detection is
+    // not acted on).
+    rx_hand_over_fell = dp_valid_q ? changed[dp_rate_q] && !held_d[dp_rate_q]
+                                   : changed[rate_m] && !held_d[rate_m];
+    rx_hand_over_fell_last = 1'b0;
     if (switched) begin
       if (state_m == Searching) begin
         fb_valid3 = 1'b0;
@@ -380,10 +414,10 @@ module transceiver #(
         fb_load   = 1'b1;
       end
       state3        = Trial;
-      rate3         = s_rate;
+      rate3         = dp_rate_q;
       trial_since_d = now_q;
       cfg3          = 1'b1;
-      cfg3_rate     = s_rate;
+      cfg3_rate     = dp_rate_q;
       // A trial from a lock keeps the lock's watchdog.
       if (!fb_valid3) begin
         wd3_start = 1'b1;
@@ -392,11 +426,12 @@ module transceiver #(
       idle_load3        = 1'b1;
       last_end_d        = det_end;
       det_d             = 1'b1;
-      det_byte_d        = s_byte;
+      det_byte_d        = dp_byte_q;
       det_end_d         = det_end;
+      // Handed over as of the detection's clock: its fall there, or one on this clock.
       rx_hand_over      = 1'b1;
-      rx_hand_over_idle = idle_since(now_q, det_end);
-      rx_hand_over_fell = changed[s_rate] && !held_d[s_rate];
+      rx_hand_over_idle = idle_since(dp_fell_q ? det_at : now_q, det_end);
+      rx_hand_over_fell_last = dp_fell_q;
     end
   end
 
@@ -406,12 +441,18 @@ module transceiver #(
   // high tick, saturating at 24 bits) exceeds the gap when now less the gap passes both ticks:
   // one subtraction a tick, against a bound worked out from registers (the gap is under 2^24
   // clocks, each tick within 2^31 of now).
+  // A character delivered on this clock ended less than a gap ago (the model checks it in
+  // debug builds): with one, the line is not idle over the gap, and the bound is compared with
+  // the last end kept. Each idle copy's high tick is compared, and the verdict chooses.
   logic [31:0] gap_bound;
+  logic        gap_rx, gap_fb;
   always_comb begin
     dl_idle_check = rx_on_m && !switched && !rx_was_active;
     gap_bound     = now_q - 32'(dl_gap) - 32'd1;
-    idle_over_gap = held_d[rate_m] && $signed(gap_bound - last_end_m) >= 0
-                    && $signed(gap_bound - idle_since_t) >= 0;
+    gap_rx        = held_d[rate_q] && $signed(gap_bound - idle_since_e) >= 0;
+    gap_fb        = held_d[fb_rate_q] && $signed(gap_bound - fb_since_e) >= 0;
+    idle_over_gap = !ch_valid && $signed(gap_bound - last_end_q) >= 0
+                    && (restore_m ? gap_fb : gap_rx);
   end
 
   // 5. The idle line's load (a detection's, stage 3, before a lock taken back, stage 1); the
@@ -419,9 +460,9 @@ module transceiver #(
   // for the next clock.
   always_comb begin
     idle_load        = idle_load3 || restore_m;
-    idle_load_left   = idle_load3 ? s_pending_left : fb_left_e;
-    idle_load_since  = idle_load3 ? det_end : fb_since_e;
-    idle_load_before = idle_load3 ? det_end : fb_before_e;
+    idle_load_left   = idle_load3 ? det_left_e : fb_left_e;
+    idle_load_since  = idle_load3 ? det_since_e : fb_since_e;
+    idle_load_before = idle_load3 ? det_before_e : fb_before_e;
     wd_start         = wd3_start;
     wd_stop          = wd3_stop;
     // Between telegrams: none under way as the clock began (in_telegram_o), so not on the
@@ -453,6 +494,12 @@ module transceiver #(
       det_q         <= 1'b0;
       det_byte_q    <= '0;
       det_end_q     <= '0;
+      dp_valid_q    <= 1'b0;
+      dp_rate_q     <= '0;
+      dp_byte_q     <= '0;
+      dp_age_q      <= '0;
+      dp_left_q     <= '0;
+      dp_fell_q     <= 1'b0;
       verdict_q          <= 1'b0;
       verdict_good_q     <= 1'b0;
       verdict_confirms_q <= 1'b0;
@@ -468,6 +515,12 @@ module transceiver #(
       det_q         <= det_d;
       det_byte_q    <= det_byte_d;
       det_end_q     <= det_end_d;
+      dp_valid_q    <= s_valid && s_detect;
+      dp_rate_q     <= s_rate;
+      dp_byte_q     <= s_byte;
+      dp_age_q      <= s_age;
+      dp_left_q     <= s_pending_left;
+      dp_fell_q     <= changed[s_rate] && !held_d[s_rate];
       verdict_q          <= verdict_d;
       verdict_good_q     <= verdict_good_d;
       verdict_confirms_q <= verdict_confirms_d;

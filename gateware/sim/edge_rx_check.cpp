@@ -6,8 +6,9 @@
 // clocks from the next one: step_i, counted here as the top's sample counter will); 'N' u32
 // (now_i of the next clock; it counts up a clock at a time); 'L' u8 level, u32 n (n clocks,
 // the line held at level: no edge); 'K' u8 flags (bit 0 the line's level as sampled, an edge
-// if it changed, on a sample tick only; bit 1 hand_over_i; bit 2 clear_i), u32 idle_before,
-// u32 hand_over_idle (the idle clocks before the hand-over's fall; one clock).
+// if it changed, on a sample tick only; bit 1 hand_over_i; bit 2 clear_i; bit 3
+// hand_over_fell_last_i: the hand-over is the last clock's, with a fall there), u32
+// idle_before, u32 hand_over_idle (the idle clocks before the hand-over's fall; one clock).
 // Outputs each clock after its edge: bit 0 active_o, bit 1 char_o (out on that clock, decided
 // on the one before), bits 2-3 stage_o, bit 4 next_active_o, bit 5 next_from_valid_o. An event
 // on each clock with a character or a change of the current lane's deadline or next_from: the
@@ -34,7 +35,8 @@ int main(int argc, char** argv) {
   uint8_t line = 1;
   harness::Samples samples;
   std::vector<uint8_t> last_lanes;
-  auto clock = [&](uint8_t level, bool hand_over, bool clear, uint32_t idle, uint32_t hand_over_idle) {
+  auto clock = [&](uint8_t level, bool hand_over, bool clear, bool fell_last, uint32_t idle,
+                   uint32_t hand_over_idle) {
     bool step = samples.clock();
     if (level != line && !step) harness::fail("an edge off the sample ticks");
     top->step_i = step;
@@ -46,6 +48,10 @@ int main(int argc, char** argv) {
     top->hand_over_idle_i = hand_over_idle;
     // The hand-over at the step's own rate (the transceiver's check covers another).
     top->hand_over_fell_i = level != line && !level;
+    top->hand_over_fell_last_i = fell_last;
+    top->hand_over_step_i = step;
+    top->hand_over_level_i = level;
+    top->hand_over_edge_i = level != line;
     line = level;
     // The character out on this clock (decided on the last): read it before the edge.
     top->clk_i = 0;
@@ -82,6 +88,7 @@ int main(int argc, char** argv) {
   top->step_i = 0;
   top->hand_over_i = 0;
   top->hand_over_fell_i = 0;
+  top->hand_over_fell_last_i = 0;
   top->clear_i = 0;
   harness::reset(*top);
   // The lanes as reset leaves them: what the first clock is compared with.
@@ -99,6 +106,11 @@ int main(int argc, char** argv) {
         top->modulo_less_inc_i = in.u32();
         top->modulo_less_two_inc_i = in.u32();
         top->start_end_i = in.u32();
+        top->hand_over_inc_i = top->inc_i;
+        top->hand_over_two_inc_i = top->two_inc_i;
+        top->hand_over_quarter_i = top->quarter_i;
+        top->hand_over_three_quarters_i = top->three_quarters_i;
+        top->hand_over_half_less_inc_i = top->half_less_inc_i;
         top->hand_over_modulo_i = top->modulo_i;
         top->hand_over_modulo_less_inc_i = top->modulo_less_inc_i;
         top->hand_over_modulo_less_two_inc_i = top->modulo_less_two_inc_i;
@@ -115,14 +127,14 @@ int main(int argc, char** argv) {
         break;
       case 'L': {
         uint8_t level = in.u8();
-        for (uint32_t n = in.u32(); n > 0; n--) clock(level, false, false, 0, 0);
+        for (uint32_t n = in.u32(); n > 0; n--) clock(level, false, false, false, 0, 0);
         break;
       }
       case 'K': {
         uint8_t flags = in.u8();
         uint32_t idle = in.u32();
         uint32_t hand_over_idle = in.u32();
-        clock(flags & 1, flags & 2, flags & 4, idle, hand_over_idle);
+        clock(flags & 1, flags & 2, flags & 4, flags & 8, idle, hand_over_idle);
         break;
       }
       default:

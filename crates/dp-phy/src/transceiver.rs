@@ -170,6 +170,12 @@ pub struct Transceiver {
     /// receiver's last one at the old rate. The search checked TSYN before it, and it is never
     /// the transceiver's echo (it started the trial).
     detected: Option<RxChar>,
+    /// The search's detection of the last clock, and whether the line fell at its rate on
+    /// that clock: acted on on this one, after the search (README "Gateware": the search's
+    /// decision and the trial it starts do not fit one 48 MHz clock together). The receiver
+    /// it starts is handed over as of the detection's clock and takes this clock's sample, so
+    /// it reads as if it had started there.
+    detection: Option<(Detection, bool)>,
     /// A delivered telegram's verdict on the baud state, acted on first thing on the next
     /// clock: a register between the delimiter and the baud control, as the gateware has it
     /// (README "Gateware": the delimiter's decision and the rate's change do not fit one
@@ -223,6 +229,7 @@ impl Transceiver {
             fallback_idle: RATE_IDLE_NONE,
             decided: None,
             detected: None,
+            detection: None,
             verdict: None,
             drove_until: 0,
             watchdog: Watchdog::STOPPED,
@@ -384,13 +391,24 @@ impl Transceiver {
             );
             self.on_verdict(v, &mut out);
         }
+        // A character delivered ended less than a gap ago, so the idle check after it finds no
+        // gap (the gateware compares the gap with the last end kept, not this one).
+        let recent = |c: &RxChar, gap: Tick| now.saturating_sub(c.end) <= gap;
         if let Some((c, idle_before)) = self.decided.take() {
+            debug_assert!(
+                recent(&c, self.delimiter.gap_clocks),
+                "a stale character at {now}"
+            );
             self.last_end = c.end;
             if c.start > self.drove_until {
                 self.on_char(&c, idle_before, &mut out);
             }
         }
         if let Some(c) = self.detected.take() {
+            debug_assert!(
+                recent(&c, self.delimiter.gap_clocks),
+                "a stale detection at {now}"
+            );
             self.last_end = c.end;
             self.on_char(&c, Tick::MAX, &mut out);
         }
@@ -426,19 +444,15 @@ impl Transceiver {
                     .edge(now, level, self.search.glitch_clocks(f));
             }
         }
-        let switched = match det {
-            Some(Ok(d)) => {
-                let fell = sampled_fall(&self.search_q, d.baud);
-                self.on_detection(&d, fell, &mut out)
-            }
-            Some(Err(_)) => {
-                if self.rx.is_none() {
-                    self.stats.search_rejects += 1;
-                }
-                false
-            }
-            None => false,
-        };
+        // Last clock's detection acts now; this clock's waits for the next.
+        let pending = self.detection.take();
+        match det {
+            Some(Ok(d)) => self.detection = Some((d, sampled_fall(&self.search_q, d.baud))),
+            Some(Err(_)) if self.rx.is_none() => self.stats.search_rejects += 1,
+            _ => {}
+        }
+        let switched =
+            pending.is_some_and(|(d, fell)| self.on_detection(&d, fell, &held, &mut out));
 
         // As the clock began: a lock taken back by a verdict starts afresh.
         let was_taking = self.rx_q.active();
@@ -488,10 +502,16 @@ impl Transceiver {
         out
     }
 
-    /// A start delimiter the search decoded (the line `fell` on this clock): a trial at its
-    /// rate, unless the receiver is on that rate already. Returns whether the receiver was
-    /// replaced.
-    fn on_detection(&mut self, d: &Detection, fell: bool, out: &mut TickOut) -> bool {
+    /// A start delimiter the search decoded on the last clock (the line `fell` at its rate
+    /// there; `held`: each rate's line as sampled before this clock): a trial at its rate,
+    /// unless the receiver is on that rate already. Returns whether the receiver was replaced.
+    fn on_detection(
+        &mut self,
+        d: &Detection,
+        fell: bool,
+        held: &[bool; 10],
+        out: &mut TickOut,
+    ) -> bool {
         match self.state {
             BaudState::Trial(b) | BaudState::Locked(b) if b == d.baud => return false,
             BaudState::Trial(_) if d.start <= self.trial_since => return false,
@@ -504,10 +524,28 @@ impl Transceiver {
             BaudState::Trial(_) => {}
         }
         self.start_trial(d.baud, out);
+        // The rate's line on this clock, after the detection's clock.
+        let b = d.baud.index();
+        let level = self.search_q.held[b];
+        let changed = level != held[b];
         self.rx_idle = RateIdle::from_detection(d);
+        if changed {
+            self.rx_idle
+                .edge(self.now, level, self.search.glitch_clocks(d.baud));
+        }
         self.last_end = d.end;
         if let Some(rx) = self.rx {
-            rx.hand_over(d.start, d.end, self.now, fell, &mut self.rx_q);
+            // Handed over on the detection's clock, then this clock's step, as `tick` takes
+            // it: the receiver is what it would be had it started there.
+            rx.hand_over(d.start, d.end, self.now - 1, fell, &mut self.rx_q);
+            if changed {
+                let idle = if level {
+                    0
+                } else {
+                    self.now.saturating_sub(d.end)
+                };
+                rx.on_edge(self.now, level, idle, &mut self.rx_q);
+            }
         }
         self.detected = Some(RxChar {
             byte: d.byte,
@@ -631,7 +669,11 @@ impl Transceiver {
         // An edge is ticked: the search and the receiver both act on it; so is a character
         // decided and not yet delivered.
         let now = self.now;
-        if self.decided.is_some() || self.detected.is_some() || self.verdict.is_some() {
+        if self.decided.is_some()
+            || self.detected.is_some()
+            || self.detection.is_some()
+            || self.verdict.is_some()
+        {
             return 0;
         }
         let (sync_quiet, _) = filter::quiet_for(line, SYNC_FILTER_LEN, &self.sync_q);

@@ -802,8 +802,8 @@ fn pinned_waveforms() {
     assert_eq!(exchange, PINNED_12M, "exchange at 12M");
 }
 
-const PINNED_LOCK: &str = "1f39a46f787b4fbf4f927d8c7980ae466996844a7790b529fc1031ff0608c943";
-const PINNED_12M: &str = "568a7c613073cde5aeecd6db55fda217501efcb838c01a9630ee013931fbed57";
+const PINNED_LOCK: &str = "1ca406ee7bc752078d37405f7f09f6ed290dcab3987333dc398137f8d2f4e84e";
+const PINNED_12M: &str = "da5ab95b424373ead6a5e06e5716835b0cbd8675f8bc0627c904c3eedf200af8";
 
 /// Found by `PROPTEST_CASES=20000` (issue 31): fast mode counted one search rejection fewer
 /// than strict mode at 9.6k with glitches.

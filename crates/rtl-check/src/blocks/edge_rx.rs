@@ -63,6 +63,14 @@ pub fn receiver_width() -> u32 {
         .expect("rates")
 }
 
+/// The search's hand-over of a character that ended at `end`: on this clock, or `late`, of the
+/// last clock (acted on on this one, as the transceiver acts on a detection).
+#[derive(Clone, Copy, Debug)]
+struct HandOver {
+    end: Tick,
+    late: bool,
+}
+
 /// The stimulus and the model, written together.
 struct RxCase {
     rx: EdgeRx,
@@ -78,6 +86,8 @@ struct RxCase {
     /// The character decided on the last clock, out on this one: the transceiver's register
     /// between the decision and the delimiter (`decided`), which edge_rx.v's outputs are.
     decided: Option<(dp_phy::uart::RxChar, Tick)>,
+    /// The line fell on the last clock.
+    fell_last: bool,
     seen: Seen,
 }
 
@@ -94,6 +104,10 @@ pub struct Seen {
     /// Hand-overs with a fall on their clock, and without.
     pub hand_overs_falling: u32,
     pub hand_overs: u32,
+    /// Hand-overs of the last clock (the transceiver acts on a detection a clock after it)
+    /// with a fall there, and with its reader's next sample at a change of the line.
+    pub late_falling: u32,
+    pub late_stepped_edge: u32,
     pub clears: u32,
 }
 
@@ -107,6 +121,8 @@ impl std::ops::AddAssign for Seen {
         self.stop_end += other.stop_end;
         self.hand_overs_falling += other.hand_overs_falling;
         self.hand_overs += other.hand_overs;
+        self.late_falling += other.late_falling;
+        self.late_stepped_edge += other.late_stepped_edge;
         self.clears += other.clears;
     }
 }
@@ -124,6 +140,7 @@ impl RxCase {
             clock: 0,
             last_lanes: [u32::MAX; 2],
             decided: None,
+            fell_last: false,
             seen: Seen::default(),
         };
         case.stimulus.push(b'N');
@@ -165,10 +182,14 @@ impl RxCase {
         }
     }
 
-    /// One clock of the model as the transceiver ticks it, and what the harness records.
-    fn tick(&mut self, level: bool, idle: Tick, hand_over: Option<Tick>, clear: bool) {
+    /// One clock of the model as the transceiver ticks it, and what the harness records. A
+    /// hand-over is of a character ending at its tick, and of the last clock if `late` (then
+    /// this clock steps the receiver it leaves, as the transceiver does).
+    fn tick(&mut self, level: bool, idle: Tick, hand_over: Option<HandOver>, clear: bool) {
         let now = self.now;
-        if level != self.line {
+        let changed = level != self.line;
+        let late = hand_over.is_some_and(|h| h.late);
+        if changed && !late {
             self.rx.on_edge(now, level, idle, &mut self.q);
         }
         let fell = self.line && !level;
@@ -179,19 +200,31 @@ impl RxCase {
         seen.next_lane += u32::from(self.q.next().n_starts() > 0);
         if hand_over.is_some() {
             seen.hand_overs += 1;
-            seen.hand_overs_falling += u32::from(fell);
+            seen.hand_overs_falling += u32::from(fell && !late);
+            seen.late_falling += u32::from(late && self.fell_last);
+            seen.late_stepped_edge += u32::from(late && self.fell_last && changed);
         }
         seen.clears += u32::from(clear);
         if now >= self.q.deadline && self.q.current().stage == dp_phy::edge_rx::Stage::StopEnd {
             seen.stop_end += 1;
         }
-        if let Some(end) = hand_over {
+        if let Some(HandOver { end, late }) = hand_over {
             // The search decided a character ending at `end`, which began 11 bits before it.
             let start = end - self.rx.timing.clocks_for(11, 1);
-            self.rx.hand_over(start, end, now, fell, &mut self.q);
+            if late {
+                self.rx
+                    .hand_over(start, end, now - 1, self.fell_last, &mut self.q);
+                if changed {
+                    let idle = if level { 0 } else { now.saturating_sub(end) };
+                    self.rx.on_edge(now, level, idle, &mut self.q);
+                }
+            } else {
+                self.rx.hand_over(start, end, now, fell, &mut self.q);
+            }
         } else if now >= self.q.deadline {
             self.decided = self.rx.act(now, level, &mut self.q);
         }
+        self.fell_last = fell;
         if clear {
             self.q = EdgeRxQ {
                 read_until: now,
@@ -264,20 +297,30 @@ impl RxCase {
     }
 
     /// One clock with the line at `level`, a fall's idle clocks before it, the search's
-    /// hand-over of a character ending at `hand_over`, a clear. A change of the line and a
-    /// hand-over wait for the receiver's next sample tick (as the search's channel of the
-    /// rate would see the change, and decide).
-    fn special(&mut self, level: bool, idle: Tick, hand_over: Option<Tick>, clear: bool) {
-        if level != self.line || hand_over.is_some() {
+    /// hand-over, a clear. A change of the line and a hand-over of this clock wait for the
+    /// receiver's next sample tick (as the search's channel of the rate would see the change,
+    /// and decide); a late hand-over comes on the clock after one.
+    fn special(&mut self, level: bool, idle: Tick, hand_over: Option<HandOver>, clear: bool) {
+        let late = hand_over.is_some_and(|h| h.late);
+        if (level != self.line || hand_over.is_some()) && !late {
             self.hold(self.to_sample());
         }
+        let fell_last = late && self.fell_last;
         self.stimulus.push(b'K');
-        self.stimulus
-            .push(u8::from(level) | u8::from(hand_over.is_some()) << 1 | u8::from(clear) << 2);
+        self.stimulus.push(
+            u8::from(level)
+                | u8::from(hand_over.is_some()) << 1
+                | u8::from(clear) << 2
+                | u8::from(fell_last) << 3,
+        );
         self.stimulus
             .extend_from_slice(&(idle.min(IDLE_MAX) as u32).to_le_bytes());
-        // The hand-over's fall's idle clocks, as the transceiver gives them.
-        let hand_over_idle = hand_over.map_or(0, |end| self.now.saturating_sub(end).min(IDLE_MAX));
+        // The hand-over's fall's idle clocks, as the transceiver gives them: from the
+        // character's end to the fall, on the last clock or this one.
+        let hand_over_idle = hand_over.map_or(0, |h| {
+            let fall = if fell_last { self.now - 1 } else { self.now };
+            fall.saturating_sub(h.end).min(IDLE_MAX)
+        });
         self.stimulus
             .extend_from_slice(&(hand_over_idle as u32).to_le_bytes());
         self.tick(level, idle, hand_over, clear);
@@ -395,8 +438,22 @@ fn random_line(case: &mut RxCase, rng: &mut ChaCha8Rng, baud: Baud, bits: u64) {
                 } else {
                     case.line
                 };
-                let end = case.now - rng.gen_range(0..bit);
-                case.special(level, 0, Some(end), false);
+                if rng.gen_bool(0.5) {
+                    let end = case.now - rng.gen_range(0..bit);
+                    case.special(level, 0, Some(HandOver { end, late: false }), false);
+                } else {
+                    // Decided on a sample tick (a fall there or not), acted on on the next
+                    // clock: a change there only where that is a sample tick too.
+                    case.hold(case.to_sample());
+                    let end = case.now - rng.gen_range(0..bit);
+                    case.special(level, rng.gen_range(0..1000), None, false);
+                    let next = if case.rx.period == 1 && rng.gen_bool(0.5) {
+                        !case.line
+                    } else {
+                        case.line
+                    };
+                    case.special(next, 0, Some(HandOver { end, late: true }), false);
+                }
                 case.hold(rng.gen_range(0..bit));
             }
             _ => {
@@ -456,6 +513,7 @@ mod tests {
         assert!(seen.chars.iter().all(|&n| n > 0), "{seen:?}");
         assert!(seen.two_candidates > 0 && seen.next_lane > 0 && seen.stop_end > 0);
         assert!(seen.hand_overs_falling > 0 && seen.hand_overs > seen.hand_overs_falling);
+        assert!(seen.late_falling > 0 && seen.late_stepped_edge > 0);
         assert!(seen.clears > 0);
     }
 }

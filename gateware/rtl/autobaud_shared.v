@@ -58,6 +58,10 @@ module autobaud_shared #(
   logic [SlotWidth-1:0] slot_q, slot_d;
   logic [Slots-1:0]     fresh_q, fresh_d;
   logic [Slots-1:0]     measuring_q, measuring_d;
+  // Whether each channel samples on its next turn (its word's frames left are 0 then), kept
+  // beside the RAM: the sample strobe, which the whole receive path waits on, comes from a
+  // register, not through the RAM's word.
+  logic [Slots-1:0]     sample_next_q, sample_next_d;
   (* ram_style = "block" *)
   logic [WordWidth-1:0] words [Slots];
   logic [WordWidth-1:0] word_q;
@@ -99,7 +103,7 @@ module autobaud_shared #(
   assign reset_state = {1'b1, edge_reset, PendWidth'(0), tsyn, tsyn, 1'b0, TimeWidth'(0),
                         TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset, ReaderReset};
   assign {frames_left, state} = fresh_q[slot_q] ? {FrameWidth'(0), reset_state} : word_q;
-  assign sample      = frames_left == '0;
+  assign sample      = sample_next_q[slot_q];
   assign frames_next = sample ? frames_less_one : frames_left - 1'b1;
   assign heard       = heard_i[slot_q];
 
@@ -109,6 +113,8 @@ module autobaud_shared #(
     fresh_d[slot_q] = 1'b0;
     measuring_d = measuring_q;
     measuring_d[slot_q] = measuring_next;
+    sample_next_d = sample_next_q;
+    sample_next_d[slot_q] = frames_next == '0;
   end
 
   // The step's other view of the measuring flag is for the other caller.
@@ -167,10 +173,12 @@ module autobaud_shared #(
       slot_q      <= '0;
       fresh_q     <= '1;
       measuring_q <= '0;
+      sample_next_q <= '1;
     end else begin
       slot_q      <= slot_d;
       fresh_q     <= fresh_d;
       measuring_q <= measuring_d;
+      sample_next_q <= sample_next_d;
     end
   end
 endmodule

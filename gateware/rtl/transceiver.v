@@ -5,8 +5,8 @@
 // held_q keeps it as each rate last sampled it (the model's AutoBaudQ::held). The receiver, its
 // idle line (rate_idle, a copy for the rate heard and one for the lock a trial falls back to),
 // the delimiter and the baud watchdog work on the rate heard; the state registers are the
-// model's: searching, trial or locked, the rate, the fallback, trial_since, last_end, and the
-// detection's character for the next clock (the model's `detected`).
+// model's: searching, trial or locked, the rate, the fallback, the trial's start (as the clocks
+// since it), last_end, and the detection's character for the next clock (`detected`).
 //
 // One clock runs in the model's order, each stage's decisions taken from the one before it:
 //   1. The verdict of the telegram delivered on the last clock (verdict_q, the model's
@@ -106,7 +106,9 @@ module transceiver #(
   logic [3:0]  rate_q, rate_d;
   logic        fb_valid_q, fb_valid_d;
   logic [3:0]  fb_rate_q, fb_rate_d;
-  logic [31:0] trial_since_q, trial_since_d;
+  // The clocks since the trial started, less one, saturating (the model's trial_since seen from
+  // the clock: now - 1 - trial_since); meaningful in a trial.
+  logic [IW-1:0] since_trial_q, since_trial_d;
   logic [31:0] last_end_q, last_end_d;
   logic        det_q, det_d;
   // The search's detection on the last clock (the model's `detection`): acted on on this one.
@@ -118,6 +120,7 @@ module transceiver #(
   logic        dp_fell_q;
   // Its clock, start and end (stage 3).
   logic [31:0] det_at, det_start, det_end;
+  logic [IW-1:0] det_age;
   logic [7:0]  det_byte_q, det_byte_d;
   logic [31:0] det_end_q, det_end_d;
   logic        verdict_q, verdict_d, verdict_good_q, verdict_good_d;
@@ -375,17 +378,18 @@ module transceiver #(
   always_comb begin
     det       = dp_valid_q;
     det_at    = now_q - 32'd1;
-    det_start = det_at - rate_age_clocks(dp_rate_q, dp_age_q);
+    det_age   = rate_age_clocks(dp_rate_q, dp_age_q);
+    det_start = det_at - 32'(det_age);
     det_end   = det_start + 32'(rate_stop_end(dp_rate_q));
     // The receiver's own rate, or the trial's own start delimiter read at a slower rate.
     ignored   = (rx_on_m && rate_m == dp_rate_q)
-             || (state_m == Trial && $signed(det_start - trial_since_q) <= 0);
+             || (state_m == Trial && since_trial_q <= det_age);
     switched  = det && !ignored;
     state3        = state_m;
     rate3         = rate_m;
     fb_valid3     = fb_valid_m;
     fb_rate_d     = fb_rate_q;
-    trial_since_d = trial_since_q;
+    since_trial_d = since_trial_q + IW'(since_trial_q != '1);
     last_end_d    = last_end_m;
     det_d         = 1'b0;
     det_byte_d    = det_byte_q;
@@ -415,7 +419,7 @@ module transceiver #(
       end
       state3        = Trial;
       rate3         = dp_rate_q;
-      trial_since_d = now_q;
+      since_trial_d = '0;
       cfg3          = 1'b1;
       cfg3_rate     = dp_rate_q;
       // A trial from a lock keeps the lock's watchdog.
@@ -489,7 +493,7 @@ module transceiver #(
       rate_q        <= '0;
       fb_valid_q    <= 1'b0;
       fb_rate_q     <= '0;
-      trial_since_q <= '0;
+      since_trial_q <= '1;
       last_end_q    <= '0;
       det_q         <= 1'b0;
       det_byte_q    <= '0;
@@ -510,7 +514,7 @@ module transceiver #(
       rate_q        <= rate_d;
       fb_valid_q    <= fb_valid_d;
       fb_rate_q     <= fb_rate_d;
-      trial_since_q <= trial_since_d;
+      since_trial_q <= since_trial_d;
       last_end_q    <= last_end_d;
       det_q         <= det_d;
       det_byte_q    <= det_byte_d;

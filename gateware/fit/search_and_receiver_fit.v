@@ -28,19 +28,19 @@ module search_and_receiver_fit (
   logic [3:0]  rate;
   logic [7:0]  byte_;
   logic [1:0]  reject_code;
-  logic [15:0] start_age;
+  logic [23:0] start_clocks;
   logic [9:0]  measuring, samples;
   logic [11:0] pending_left;
   autobaud #(.Oversampled(1)) u_search (
     .clk_i, .rst_ni, .level_i, .heard_valid_i, .heard_i, .valid_o(valid), .detect_o(detect),
-    .rate_o(rate), .byte_o(byte_), .reject_code_o(reject_code), .start_age_o(start_age),
+    .rate_o(rate), .byte_o(byte_), .reject_code_o(reject_code), .start_clocks_o(start_clocks),
     .pending_left_o(pending_left), .samples_o(samples), .measuring_o(measuring)
   );
 
-  logic [63:0] out_q;
+  logic [71:0] out_q;
   logic        fold_q;
   always_ff @(posedge clk_i) begin
-    out_q  <= {valid, detect, rate, byte_, reject_code, start_age, pending_left, samples,
+    out_q  <= {valid, detect, rate, byte_, reject_code, start_clocks, pending_left, samples,
                measuring};
     fold_q <= ^out_q;
   end

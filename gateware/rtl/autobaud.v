@@ -17,11 +17,9 @@ module autobaud #(
   // clocks (AutoBaud::sampled with OVERSAMPLED, the model's default); 0: every channel samples
   // every clock (AutoBaud::new, to compare).
   parameter int Oversampled = 1,
-  // The detections' start age and second-start offset, in the detecting channel's samples
-  // (a 9.6k character and its start bit at every clock). Each channel's own registers have
-  // its rate's widths (autobaud_channels.svh).
-  parameter int TimeWidth = 16,
-  parameter int AltWidth  = 13,
+  // The detections' start age in clocks (each channel's own registers count its samples, at
+  // its rate's widths: autobaud_channels.svh; each puts out its samples times its period).
+  parameter int ClocksWidth = 24,
   // The detecting channel's samples within which a next edge cancels its idle line's last
   // one (9.6k's glitch at every clock: 2,499).
   parameter int PendWidth = 12
@@ -36,7 +34,7 @@ module autobaud #(
   output logic [3:0]          rate_o,
   output logic [7:0]          byte_o,
   output logic [1:0]          reject_code_o,
-  output logic [TimeWidth-1:0] start_age_o,
+  output logic [ClocksWidth-1:0] start_clocks_o,
   // With a detection: its channel's idle line's pending edge, as the samples within which a
   // next edge still cancels it (0: none); the transceiver's copy of that line goes on from it.
   output logic [PendWidth-1:0] pending_left_o,
@@ -51,8 +49,7 @@ module autobaud #(
   logic [Rates-1:0]           heard, detect, reject;
   logic [Rates*2-1:0]         reject_code;
   logic [Rates*8-1:0]         bytes;
-  logic [Rates*TimeWidth-1:0] since_t0;
-  logic [Rates*AltWidth-1:0]  offset;
+  logic [Rates*ClocksWidth-1:0] start_clocks;
   logic [Rates*PendWidth-1:0] cancel_left;
 
   always_comb begin
@@ -63,7 +60,7 @@ module autobaud #(
     rate_o        = '0;
     byte_o        = '0;
     reject_code_o = '0;
-    start_age_o   = '0;
+    start_clocks_o = '0;
     pending_left_o = '0;
     for (int r = 0; r < Rates; r++) begin
       if (reject[r]) begin
@@ -71,7 +68,7 @@ module autobaud #(
         rate_o        = 4'(r);
         reject_code_o = reject_code[r*2 +: 2];
         byte_o        = '0;
-        start_age_o   = '0;
+        start_clocks_o = '0;
       end
     end
     for (int r = 0; r < Rates; r++) begin
@@ -82,9 +79,7 @@ module autobaud #(
         byte_o        = bytes[r*8 +: 8];
         reject_code_o = '0;
         pending_left_o = cancel_left[r*PendWidth +: PendWidth];
-        // One subtraction, for the channel that goes out.
-        start_age_o   = since_t0[r*TimeWidth +: TimeWidth]
-                      - TimeWidth'(offset[r*AltWidth +: AltWidth]);
+        start_clocks_o = start_clocks[r*ClocksWidth +: ClocksWidth];
       end
     end
   end

@@ -45,9 +45,8 @@ module autobaud_channel #(
   parameter int PendWidth        = 12,
   parameter int TimeWidth        = 16,
   parameter int AltWidth         = 13,
-  // The search's: the start age and offset it puts out.
-  parameter int StartAgeWidth    = 16,
-  parameter int AltOutWidth      = 13,
+  // The search's: the start age in clocks it puts out, the pending edge.
+  parameter int ClocksWidth      = 24,
   parameter int PendOutWidth     = 12
 ) (
   input  wire                 clk_i,
@@ -61,9 +60,9 @@ module autobaud_channel #(
   // Reject: 0 off the grid, 1 no character, 2 no delimiter.
   output wire [1:0]           reject_code_o,
   output wire [7:0]           byte_o,
-  // Clocks since the detected character's start edge.
-  output wire [StartAgeWidth-1:0] since_t0_o,
-  output wire [AltOutWidth-1:0]   offset_o,
+  // Clocks since the detected character's start edge: its samples since the start the step
+  // chose, times the period (a constant, so shifts and adds).
+  output wire [ClocksWidth-1:0]   start_clocks_o,
   // With a detection: the samples within which a next edge cancels the idle line's last one.
   output wire [PendOutWidth-1:0]  cancel_left_o,
   // The channel samples the line on this clock.
@@ -86,6 +85,14 @@ module autobaud_channel #(
   logic [PhaseBits-1:0]  phase_q, phase_d;
   logic [StateWidth-1:0] state_q, state_d;
   logic                  sample;
+  logic [TimeWidth-1:0]  since_t0;
+  logic [AltWidth-1:0]   alt;
+  logic                  from_alt;
+  logic [TimeWidth-1:0]  since_alt;
+  logic [TimeWidth-1:0]  since_start;
+  assign since_alt      = since_t0 - TimeWidth'(alt);
+  assign since_start    = from_alt ? since_alt : since_t0;
+  assign start_clocks_o = ClocksWidth'(since_start) * ClocksWidth'(Period);
 
   // The channel's samples: every Period clocks, from tick Phase. Between them it holds.
   assign sample  = phase_q == '0;
@@ -98,8 +105,7 @@ module autobaud_channel #(
   /* verilator lint_off PINCONNECTEMPTY */
   autobaud_channel_step #(
     .PhaseWidth(PhaseWidth), .IdleWidth(IdleWidth), .PendWidth(PendWidth),
-    .TimeWidth(TimeWidth), .AltWidth(AltWidth), .StartAgeWidth(StartAgeWidth),
-    .AltOutWidth(AltOutWidth)
+    .TimeWidth(TimeWidth), .AltWidth(AltWidth)
   ) u_step (
     .inc_i                (PhaseWidth'(Inc)),
     .modulo_i             (PhaseWidth'(Modulo)),
@@ -124,8 +130,9 @@ module autobaud_channel #(
     .reject_o,
     .reject_code_o,
     .byte_o,
-    .since_t0_o,
-    .offset_o,
+    .since_t0_o           (since_t0),
+    .alt_o                (alt),
+    .from_alt_o           (from_alt),
     .cancel_left_o        (cancel_left),
     .measuring_o,
     .measuring_next_o     ()

@@ -22,8 +22,6 @@ module autobaud_channel_step #(
   parameter int PendWidth     = 12,
   parameter int TimeWidth     = 16,
   parameter int AltWidth      = 13,
-  parameter int StartAgeWidth = 16,
-  parameter int AltOutWidth   = 13,
   // Derived; not to be set.
   parameter int ReaderWidth   = 4 * PhaseWidth + 21,
   parameter int StateWidth    = 2 * PendWidth + 2 * IdleWidth + 2 * TimeWidth + AltWidth + 8
@@ -57,9 +55,12 @@ module autobaud_channel_step #(
   // Reject: 0 off the grid, 1 no character, 2 no delimiter.
   output wire [1:0]            reject_code_o,
   output wire [7:0]            byte_o,
-  // Samples since the detected character's start edge, and the second start's offset.
-  output wire [StartAgeWidth-1:0] since_t0_o,
-  output wire [AltOutWidth-1:0]   offset_o,
+  // Samples since the first start edge, the second start's offset from it (both registers,
+  // early in the clock), and whether the decision reads from the second (late): the detected
+  // character's start is since_t0_o, less alt_o when from_alt_o.
+  output wire [TimeWidth-1:0]  since_t0_o,
+  output wire [AltWidth-1:0]   alt_o,
+  output wire                  from_alt_o,
   // The samples within which a next edge cancels the idle line's last one, as this clock
   // leaves them (0: none can): the detecting channel's goes to the transceiver's own copy of
   // the rate's idle line (Detection::pending).
@@ -147,7 +148,7 @@ module autobaud_channel_step #(
   logic                 ok;
   logic [1:0]           code;
   logic [7:0]           data;
-  logic [AltWidth-1:0]  offset;
+  logic                 from_alt_chosen;
 
   always_comb begin
     sample        = sample_i;
@@ -181,7 +182,7 @@ module autobaud_channel_step #(
     ok           = 1'b0;
     code         = 2'd0;
     data         = 8'd0;
-    offset       = '0;
+    from_alt_chosen = 1'b0;
 
     // The idle line, with the rate's glitches removed.
     if (edge_now) begin
@@ -224,7 +225,7 @@ module autobaud_channel_step #(
       {ok, code, data} = from_start;
     end else if (from_alt[10]) begin
       {ok, code, data} = from_alt;
-      offset = alt_q;
+      from_alt_chosen = 1'b1;
     end else begin
       {ok, code, data} = from_start;
     end
@@ -245,8 +246,9 @@ module autobaud_channel_step #(
   assign reject_o      = decides && !ok && !heard_any_i;
   assign reject_code_o = code;
   assign byte_o        = data;
-  assign since_t0_o    = StartAgeWidth'(since_t0_q);
-  assign offset_o      = AltOutWidth'(offset);
+  assign since_t0_o    = since_t0_q;
+  assign alt_o         = alt_q;
+  assign from_alt_o    = from_alt_chosen;
   assign cancel_left_o = cancel_left_d;
   assign measuring_o   = measuring_q;
   assign measuring_next_o = measuring_d;

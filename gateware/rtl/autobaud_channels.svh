@@ -8,25 +8,23 @@
     // 9.6k to 500k, taking turns: slot s is the rate of index s (autobaud_slots.svh)
     logic [1:0] shared_code;
     logic [7:0] shared_byte;
-    logic [TimeWidth-1:0] shared_since;
-    logic [AltWidth-1:0] shared_offset;
+    logic [ClocksWidth-1:0] shared_clocks;
     logic [PendWidth-1:0] shared_cancel;
     autobaud_shared #(
       .Slots(6), .PhaseWidth(7), .IdleWidth(10), .PendWidth(4),
       .TimeWidth(9), .AltWidth(5), .FrameWidth(6),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_shared (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[5:0]), .heard_any_i(heard_valid_i), .detect_o(detect[5:0]),
       .reject_o(reject[5:0]), .reject_code_o(shared_code), .byte_o(shared_byte),
-      .since_t0_o(shared_since), .offset_o(shared_offset), .cancel_left_o(shared_cancel),
+      .start_clocks_o(shared_clocks), .cancel_left_o(shared_cancel),
       .samples_o(samples_o[5:0]), .measuring_o(measuring_o[5:0])
     );
     for (genvar r = 0; r < 6; r++) begin : g_shared
       assign reject_code[r * 2 +: 2] = shared_code;
       assign bytes[r * 8 +: 8] = shared_byte;
-      assign since_t0[r * TimeWidth +: TimeWidth] = shared_since;
-      assign offset[r * AltWidth +: AltWidth] = shared_offset;
+      assign start_clocks[r * ClocksWidth +: ClocksWidth] = shared_clocks;
       assign cancel_left[r * PendWidth +: PendWidth] = shared_cancel;
     end
 
@@ -38,13 +36,13 @@
       .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
       .StartBitClocks(16), .Period(2), .Phase(0),
       .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_6 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[6]), .heard_any_i(heard_valid_i), .detect_o(detect[6]),
       .reject_o(reject[6]), .reject_code_o(reject_code[6 * 2 +: 2]),
-      .byte_o(bytes[6 * 8 +: 8]), .since_t0_o(since_t0[6 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[6 * AltWidth +: AltWidth]),
+      .byte_o(bytes[6 * 8 +: 8]),
+      .start_clocks_o(start_clocks[6 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[6 * PendWidth +: PendWidth]), .sample_o(samples_o[6]),
       .measuring_o(measuring_o[6])
     );
@@ -56,13 +54,13 @@
       .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
       .StartBitClocks(16), .Period(1), .Phase(0),
       .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_7 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[7]), .heard_any_i(heard_valid_i), .detect_o(detect[7]),
       .reject_o(reject[7]), .reject_code_o(reject_code[7 * 2 +: 2]),
-      .byte_o(bytes[7 * 8 +: 8]), .since_t0_o(since_t0[7 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[7 * AltWidth +: AltWidth]),
+      .byte_o(bytes[7 * 8 +: 8]),
+      .start_clocks_o(start_clocks[7 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[7 * PendWidth +: PendWidth]), .sample_o(samples_o[7]),
       .measuring_o(measuring_o[7])
     );
@@ -74,13 +72,13 @@
       .Glitch(3), .Tsyn(260), .StopMiddle(84), .StopEnd(88),
       .StartBitClocks(8), .Period(1), .Phase(0),
       .IdleWidth(9), .PendWidth(3), .TimeWidth(7), .AltWidth(4),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_8 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[8]), .heard_any_i(heard_valid_i), .detect_o(detect[8]),
       .reject_o(reject[8]), .reject_code_o(reject_code[8 * 2 +: 2]),
-      .byte_o(bytes[8 * 8 +: 8]), .since_t0_o(since_t0[8 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[8 * AltWidth +: AltWidth]),
+      .byte_o(bytes[8 * 8 +: 8]),
+      .start_clocks_o(start_clocks[8 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[8 * PendWidth +: PendWidth]), .sample_o(samples_o[8]),
       .measuring_o(measuring_o[8])
     );
@@ -92,13 +90,13 @@
       .Glitch(1), .Tsyn(130), .StopMiddle(42), .StopEnd(44),
       .StartBitClocks(4), .Period(1), .Phase(0),
       .IdleWidth(8), .PendWidth(2), .TimeWidth(6), .AltWidth(3),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_9 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[9]), .heard_any_i(heard_valid_i), .detect_o(detect[9]),
       .reject_o(reject[9]), .reject_code_o(reject_code[9 * 2 +: 2]),
-      .byte_o(bytes[9 * 8 +: 8]), .since_t0_o(since_t0[9 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[9 * AltWidth +: AltWidth]),
+      .byte_o(bytes[9 * 8 +: 8]),
+      .start_clocks_o(start_clocks[9 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[9 * PendWidth +: PendWidth]), .sample_o(samples_o[9]),
       .measuring_o(measuring_o[9])
     );
@@ -113,13 +111,13 @@
       .Glitch(2499), .Tsyn(162500), .StopMiddle(52500), .StopEnd(55000),
       .StartBitClocks(5000), .Period(1), .Phase(0),
       .IdleWidth(18), .PendWidth(12), .TimeWidth(16), .AltWidth(13),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_0 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[0]), .heard_any_i(heard_valid_i), .detect_o(detect[0]),
       .reject_o(reject[0]), .reject_code_o(reject_code[0 * 2 +: 2]),
-      .byte_o(bytes[0 * 8 +: 8]), .since_t0_o(since_t0[0 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[0 * AltWidth +: AltWidth]),
+      .byte_o(bytes[0 * 8 +: 8]),
+      .start_clocks_o(start_clocks[0 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[0 * PendWidth +: PendWidth]), .sample_o(samples_o[0]),
       .measuring_o(measuring_o[0])
     );
@@ -131,13 +129,13 @@
       .Glitch(1249), .Tsyn(81250), .StopMiddle(26250), .StopEnd(27500),
       .StartBitClocks(2500), .Period(1), .Phase(0),
       .IdleWidth(17), .PendWidth(11), .TimeWidth(15), .AltWidth(12),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_1 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[1]), .heard_any_i(heard_valid_i), .detect_o(detect[1]),
       .reject_o(reject[1]), .reject_code_o(reject_code[1 * 2 +: 2]),
-      .byte_o(bytes[1 * 8 +: 8]), .since_t0_o(since_t0[1 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[1 * AltWidth +: AltWidth]),
+      .byte_o(bytes[1 * 8 +: 8]),
+      .start_clocks_o(start_clocks[1 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[1 * PendWidth +: PendWidth]), .sample_o(samples_o[1]),
       .measuring_o(measuring_o[1])
     );
@@ -149,13 +147,13 @@
       .Glitch(527), .Tsyn(34324), .StopMiddle(11090), .StopEnd(11618),
       .StartBitClocks(1057), .Period(1), .Phase(0),
       .IdleWidth(16), .PendWidth(10), .TimeWidth(14), .AltWidth(11),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_2 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[2]), .heard_any_i(heard_valid_i), .detect_o(detect[2]),
       .reject_o(reject[2]), .reject_code_o(reject_code[2 * 2 +: 2]),
-      .byte_o(bytes[2 * 8 +: 8]), .since_t0_o(since_t0[2 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[2 * AltWidth +: AltWidth]),
+      .byte_o(bytes[2 * 8 +: 8]),
+      .start_clocks_o(start_clocks[2 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[2 * PendWidth +: PendWidth]), .sample_o(samples_o[2]),
       .measuring_o(measuring_o[2])
     );
@@ -167,13 +165,13 @@
       .Glitch(255), .Tsyn(16640), .StopMiddle(5376), .StopEnd(5632),
       .StartBitClocks(512), .Period(1), .Phase(0),
       .IdleWidth(15), .PendWidth(9), .TimeWidth(13), .AltWidth(10),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_3 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[3]), .heard_any_i(heard_valid_i), .detect_o(detect[3]),
       .reject_o(reject[3]), .reject_code_o(reject_code[3 * 2 +: 2]),
-      .byte_o(bytes[3 * 8 +: 8]), .since_t0_o(since_t0[3 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[3 * AltWidth +: AltWidth]),
+      .byte_o(bytes[3 * 8 +: 8]),
+      .start_clocks_o(start_clocks[3 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[3 * PendWidth +: PendWidth]), .sample_o(samples_o[3]),
       .measuring_o(measuring_o[3])
     );
@@ -185,13 +183,13 @@
       .Glitch(127), .Tsyn(8320), .StopMiddle(2688), .StopEnd(2816),
       .StartBitClocks(256), .Period(1), .Phase(0),
       .IdleWidth(14), .PendWidth(8), .TimeWidth(12), .AltWidth(9),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_4 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[4]), .heard_any_i(heard_valid_i), .detect_o(detect[4]),
       .reject_o(reject[4]), .reject_code_o(reject_code[4 * 2 +: 2]),
-      .byte_o(bytes[4 * 8 +: 8]), .since_t0_o(since_t0[4 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[4 * AltWidth +: AltWidth]),
+      .byte_o(bytes[4 * 8 +: 8]),
+      .start_clocks_o(start_clocks[4 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[4 * PendWidth +: PendWidth]), .sample_o(samples_o[4]),
       .measuring_o(measuring_o[4])
     );
@@ -203,13 +201,13 @@
       .Glitch(47), .Tsyn(3120), .StopMiddle(1008), .StopEnd(1056),
       .StartBitClocks(96), .Period(1), .Phase(0),
       .IdleWidth(12), .PendWidth(6), .TimeWidth(11), .AltWidth(7),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_5 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[5]), .heard_any_i(heard_valid_i), .detect_o(detect[5]),
       .reject_o(reject[5]), .reject_code_o(reject_code[5 * 2 +: 2]),
-      .byte_o(bytes[5 * 8 +: 8]), .since_t0_o(since_t0[5 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[5 * AltWidth +: AltWidth]),
+      .byte_o(bytes[5 * 8 +: 8]),
+      .start_clocks_o(start_clocks[5 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[5 * PendWidth +: PendWidth]), .sample_o(samples_o[5]),
       .measuring_o(measuring_o[5])
     );
@@ -221,13 +219,13 @@
       .Glitch(15), .Tsyn(1040), .StopMiddle(336), .StopEnd(352),
       .StartBitClocks(32), .Period(1), .Phase(0),
       .IdleWidth(11), .PendWidth(5), .TimeWidth(9), .AltWidth(6),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_6 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[6]), .heard_any_i(heard_valid_i), .detect_o(detect[6]),
       .reject_o(reject[6]), .reject_code_o(reject_code[6 * 2 +: 2]),
-      .byte_o(bytes[6 * 8 +: 8]), .since_t0_o(since_t0[6 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[6 * AltWidth +: AltWidth]),
+      .byte_o(bytes[6 * 8 +: 8]),
+      .start_clocks_o(start_clocks[6 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[6 * PendWidth +: PendWidth]), .sample_o(samples_o[6]),
       .measuring_o(measuring_o[6])
     );
@@ -239,13 +237,13 @@
       .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
       .StartBitClocks(16), .Period(1), .Phase(0),
       .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_7 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[7]), .heard_any_i(heard_valid_i), .detect_o(detect[7]),
       .reject_o(reject[7]), .reject_code_o(reject_code[7 * 2 +: 2]),
-      .byte_o(bytes[7 * 8 +: 8]), .since_t0_o(since_t0[7 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[7 * AltWidth +: AltWidth]),
+      .byte_o(bytes[7 * 8 +: 8]),
+      .start_clocks_o(start_clocks[7 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[7 * PendWidth +: PendWidth]), .sample_o(samples_o[7]),
       .measuring_o(measuring_o[7])
     );
@@ -257,13 +255,13 @@
       .Glitch(3), .Tsyn(260), .StopMiddle(84), .StopEnd(88),
       .StartBitClocks(8), .Period(1), .Phase(0),
       .IdleWidth(9), .PendWidth(3), .TimeWidth(7), .AltWidth(4),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_8 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[8]), .heard_any_i(heard_valid_i), .detect_o(detect[8]),
       .reject_o(reject[8]), .reject_code_o(reject_code[8 * 2 +: 2]),
-      .byte_o(bytes[8 * 8 +: 8]), .since_t0_o(since_t0[8 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[8 * AltWidth +: AltWidth]),
+      .byte_o(bytes[8 * 8 +: 8]),
+      .start_clocks_o(start_clocks[8 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[8 * PendWidth +: PendWidth]), .sample_o(samples_o[8]),
       .measuring_o(measuring_o[8])
     );
@@ -275,13 +273,13 @@
       .Glitch(1), .Tsyn(130), .StopMiddle(42), .StopEnd(44),
       .StartBitClocks(4), .Period(1), .Phase(0),
       .IdleWidth(8), .PendWidth(2), .TimeWidth(6), .AltWidth(3),
-      .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_channel_9 (
       .clk_i, .rst_ni, .level_i,
       .heard_i(heard[9]), .heard_any_i(heard_valid_i), .detect_o(detect[9]),
       .reject_o(reject[9]), .reject_code_o(reject_code[9 * 2 +: 2]),
-      .byte_o(bytes[9 * 8 +: 8]), .since_t0_o(since_t0[9 * TimeWidth +: TimeWidth]),
-      .offset_o(offset[9 * AltWidth +: AltWidth]),
+      .byte_o(bytes[9 * 8 +: 8]),
+      .start_clocks_o(start_clocks[9 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[9 * PendWidth +: PendWidth]), .sample_o(samples_o[9]),
       .measuring_o(measuring_o[9])
     );

@@ -26,8 +26,7 @@ module autobaud_shared #(
   parameter int TimeWidth     = 8,
   parameter int AltWidth      = 5,
   parameter int FrameWidth    = 6,
-  parameter int StartAgeWidth = 16,
-  parameter int AltOutWidth   = 13,
+  parameter int ClocksWidth   = 24,
   parameter int PendOutWidth  = 12
 ) (
   input  wire                     clk_i,
@@ -39,8 +38,8 @@ module autobaud_shared #(
   output wire [Slots-1:0]         reject_o,
   output wire [1:0]               reject_code_o,
   output wire [7:0]               byte_o,
-  output wire [StartAgeWidth-1:0] since_t0_o,
-  output wire [AltOutWidth-1:0]   offset_o,
+  // The deciding channel's clocks since its character's start edge.
+  output wire [ClocksWidth-1:0]   start_clocks_o,
   // The deciding channel's samples within which a next edge cancels its idle line's last one.
   output wire [PendOutWidth-1:0]  cancel_left_o,
   // Each channel samples the line on this clock (only the one in turn can).
@@ -100,6 +99,20 @@ module autobaud_shared #(
   logic [PendWidth-1:0]  cancel_left;
   assign cancel_left_o = PendOutWidth'(cancel_left);
 
+  // The start age in clocks: the channel in turn samples every Slots clocks times its frames;
+  // both candidates come from its word (the RAM's, early in the clock), and one multiplier
+  // takes the one the step chose.
+  logic [TimeWidth-1:0]   since_t0;
+  logic [AltWidth-1:0]    alt;
+  logic                   from_alt;
+  logic [ClocksWidth-1:0] period;
+  logic [TimeWidth-1:0]   since_alt;
+  logic [TimeWidth-1:0]   since_start;
+  assign since_alt      = since_t0 - TimeWidth'(alt);
+  assign period         = ClocksWidth'(Slots) * (ClocksWidth'(frames_less_one) + 1'b1);
+  assign since_start    = from_alt ? since_alt : since_t0;
+  assign start_clocks_o = ClocksWidth'(since_start) * period;
+
   assign reset_state = {1'b1, edge_reset, PendWidth'(0), tsyn, tsyn, 1'b0, TimeWidth'(0),
                         TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset, ReaderReset};
   assign {frames_left, state} = fresh_q[slot_q] ? {FrameWidth'(0), reset_state} : word_q;
@@ -121,8 +134,7 @@ module autobaud_shared #(
   /* verilator lint_off PINCONNECTEMPTY */
   autobaud_channel_step #(
     .PhaseWidth(PhaseWidth), .IdleWidth(IdleWidth), .PendWidth(PendWidth),
-    .TimeWidth(TimeWidth), .AltWidth(AltWidth), .StartAgeWidth(StartAgeWidth),
-    .AltOutWidth(AltOutWidth)
+    .TimeWidth(TimeWidth), .AltWidth(AltWidth)
   ) u_step (
     .inc_i                (inc),
     .modulo_i             (modulo),
@@ -147,8 +159,9 @@ module autobaud_shared #(
     .reject_o             (reject),
     .reject_code_o,
     .byte_o,
-    .since_t0_o,
-    .offset_o,
+    .since_t0_o           (since_t0),
+    .alt_o                (alt),
+    .from_alt_o           (from_alt),
     .cancel_left_o        (cancel_left),
     .measuring_o          (),
     .measuring_next_o     (measuring_next)

@@ -115,7 +115,8 @@ module transceiver #(
   logic        dp_valid_q;
   logic [3:0]  dp_rate_q;
   logic [7:0]  dp_byte_q;
-  logic [15:0] dp_age_q;
+  // Its age in clocks.
+  logic [IW-1:0] dp_age_q;
   logic [PendWidth-1:0] dp_left_q;
   logic        dp_fell_q;
   // Its clock, start and end (stage 3).
@@ -139,13 +140,13 @@ module transceiver #(
   logic [3:0]  s_rate;
   logic [7:0]  s_byte;
   logic [1:0]  s_reject_unused;
-  logic [15:0] s_age;
+  logic [IW-1:0] s_age;
   logic [PendWidth-1:0] s_pending_left;
   wire  [9:0]  samples, measuring_unused;
   autobaud #(.Oversampled(1), .PendWidth(PendWidth)) u_search (
     .clk_i, .rst_ni, .level_i(level), .heard_valid_i(rx_on_m), .heard_i(rate_m),
     .valid_o(s_valid), .detect_o(s_detect), .rate_o(s_rate), .byte_o(s_byte),
-    .reject_code_o(s_reject_unused), .start_age_o(s_age), .pending_left_o(s_pending_left),
+    .reject_code_o(s_reject_unused), .start_clocks_o(s_age), .pending_left_o(s_pending_left),
     .samples_o(samples), .measuring_o(measuring_unused)
   );
 
@@ -378,7 +379,7 @@ module transceiver #(
   always_comb begin
     det       = dp_valid_q;
     det_at    = now_q - 32'd1;
-    det_age   = rate_age_clocks(dp_rate_q, dp_age_q);
+    det_age   = dp_age_q;
     det_start = det_at - 32'(det_age);
     det_end   = det_start + 32'(rate_stop_end(dp_rate_q));
     // The receiver's own rate, or the trial's own start delimiter read at a slower rate.

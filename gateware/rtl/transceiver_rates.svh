@@ -30,22 +30,6 @@
     endcase
   endfunction
 
-  function automatic logic [23:0] rate_age_clocks(input logic [3:0] r, input logic [15:0] age);
-    case (r)
-      4'd0: rate_age_clocks = 24'(age) * 24'd240; // 9.6k
-      4'd1: rate_age_clocks = 24'(age) * 24'd120; // 19.2k
-      4'd2: rate_age_clocks = 24'(age) * 24'd66; // 45.45k
-      4'd3: rate_age_clocks = 24'(age) * 24'd24; // 93.75k
-      4'd4: rate_age_clocks = 24'(age) * 24'd12; // 187.5k
-      4'd5: rate_age_clocks = 24'(age) * 24'd6; // 500k
-      4'd6: rate_age_clocks = 24'(age) * 24'd2; // 1.5M
-      4'd7: rate_age_clocks = 24'(age) * 24'd1; // 3M
-      4'd8: rate_age_clocks = 24'(age) * 24'd1; // 6M
-      4'd9: rate_age_clocks = 24'(age) * 24'd1; // 12M
-      default: rate_age_clocks = '0;
-    endcase
-  endfunction
-
   function automatic logic [15:0] rate_stop_end(input logic [3:0] r);
     case (r)
       4'd0: rate_stop_end = 16'd55200; // 9.6k

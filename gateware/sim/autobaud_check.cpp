@@ -5,8 +5,8 @@
 // bit 0 valid_o, bit 1 detect_o, bit 2 any channel measuring after the edge, bit 3 the heard
 // rate's channel samples on this clock (samples_o). An event on each clock with a decision or
 // a change of the channels measuring: measuring_o (u16), then the decision: kind (0 none, 1
-// detection, 2 rejection), rate, byte (a rejection: its code), start_age_o (u32, in the
-// detecting channel's samples; 0 for a rejection, which names no rate or start in the model),
+// detection, 2 rejection), rate, byte (a rejection: its code), start_clocks_o (u32, the
+// clocks since the character's start; 0 for a rejection, which names no rate or start in the model),
 // pending_left_o (u32, the samples within which a next edge cancels the detecting channel's
 // idle line's last one; 0 for a rejection).
 #include <memory>
@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
       value = top->detect_o ? 0b11 : 0b01;
       if (top->detect_o) {
         decision = {1, top->rate_o, top->byte_o};
-        put(decision, top->start_age_o, 4);
+        put(decision, top->start_clocks_o, 4);
         put(decision, top->pending_left_o, 4);
       } else {
         decision = {2, 0, top->reject_code_o};

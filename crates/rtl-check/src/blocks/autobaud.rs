@@ -140,13 +140,13 @@ pub fn channels_svh() -> String {
                  .Glitch({}), .Tsyn({}), .StopMiddle({}), .StopEnd({}),\n      \
                  .StartBitClocks({}), .Period({}), .Phase({}),\n      \
                  .IdleWidth({idle_w}), .PendWidth({pend_w}), .TimeWidth({time_w}), .AltWidth({alt_w}),\n      \
-                 .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)\n    \
+                 .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)\n    \
                  ) u_channel_{r} (\n      \
                  .clk_i, .rst_ni, .level_i,\n      \
                  .heard_i(heard[{r}]), .heard_any_i(heard_valid_i), .detect_o(detect[{r}]),\n      \
                  .reject_o(reject[{r}]), .reject_code_o(reject_code[{r} * 2 +: 2]),\n      \
-                 .byte_o(bytes[{r} * 8 +: 8]), .since_t0_o(since_t0[{r} * TimeWidth +: TimeWidth]),\n      \
-                 .offset_o(offset[{r} * AltWidth +: AltWidth]),\n      \
+                 .byte_o(bytes[{r} * 8 +: 8]),\n      \
+                 .start_clocks_o(start_clocks[{r} * ClocksWidth +: ClocksWidth]),\n      \
                  .cancel_left_o(cancel_left[{r} * PendWidth +: PendWidth]), .sample_o(samples_o[{r}]),\n      \
                  .measuring_o(measuring_o[{r}])\n    );\n",
                 f.period,
@@ -199,23 +199,22 @@ fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> 
     let mut s = format!(
         "\n    // 9.6k to 500k, taking turns: slot s is the rate of index s (autobaud_slots.svh)\n    \
          logic [1:0] shared_code;\n    logic [7:0] shared_byte;\n    \
-         logic [TimeWidth-1:0] shared_since;\n    logic [AltWidth-1:0] shared_offset;\n    \
+         logic [ClocksWidth-1:0] shared_clocks;\n    \
          logic [PendWidth-1:0] shared_cancel;\n    \
          autobaud_shared #(\n      \
          .Slots({slots}), .PhaseWidth({phase_w}), .IdleWidth({idle_w}), .PendWidth({pend_w}),\n      \
          .TimeWidth({time_w}), .AltWidth({alt_w}), .FrameWidth({}),\n      \
-         .StartAgeWidth(TimeWidth), .AltOutWidth(AltWidth), .PendOutWidth(PendWidth)\n    \
+         .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)\n    \
          ) u_shared (\n      \
          .clk_i, .rst_ni, .level_i,\n      \
          .heard_i(heard[{last}:0]), .heard_any_i(heard_valid_i), .detect_o(detect[{last}:0]),\n      \
          .reject_o(reject[{last}:0]), .reject_code_o(shared_code), .byte_o(shared_byte),\n      \
-         .since_t0_o(shared_since), .offset_o(shared_offset), .cancel_left_o(shared_cancel),\n      \
+         .start_clocks_o(shared_clocks), .cancel_left_o(shared_cancel),\n      \
          .samples_o(samples_o[{last}:0]), .measuring_o(measuring_o[{last}:0])\n    );\n    \
          for (genvar r = 0; r < {slots}; r++) begin : g_shared\n      \
          assign reject_code[r * 2 +: 2] = shared_code;\n      \
          assign bytes[r * 8 +: 8] = shared_byte;\n      \
-         assign since_t0[r * TimeWidth +: TimeWidth] = shared_since;\n      \
-         assign offset[r * AltWidth +: AltWidth] = shared_offset;\n      \
+         assign start_clocks[r * ClocksWidth +: ClocksWidth] = shared_clocks;\n      \
          assign cancel_left[r * PendWidth +: PendWidth] = shared_cancel;\n    \
          end\n",
         bits_for(frames - 1).max(1),
@@ -351,9 +350,9 @@ impl SearchCase {
             Some(Ok(d)) => {
                 value |= 0b11;
                 payload.extend([1, d.baud.index() as u8, d.byte]);
-                // In the detecting channel's samples, as the RTL counts.
+                // In clocks, as the RTL puts it out (each channel's samples times its period).
                 let period = self.schedule.period[d.baud.index()];
-                let age = (self.now - d.start) / period;
+                let age = self.now - d.start;
                 payload.extend((age as u32).to_le_bytes());
                 // The pending edge as the samples a next one still cancels it within: the
                 // rate's glitch less the samples since it.

@@ -110,20 +110,6 @@ pub fn rates_svh() -> String {
             r.inc
         )
     });
-    // 24 bits hold any 16-bit age at every rate's period: the top compares the product with
-    // its 24-bit count of the trial's clocks.
-    assert!(
-        Baud::ALL
-            .iter()
-            .all(|b| u64::from(u16::MAX) * u64::from(schedule.period[b.index()]) < 1 << 24),
-        "a detection's age in clocks needs more than 24 bits"
-    );
-    function(
-        "rate_age_clocks",
-        "logic [23:0]",
-        ", input logic [15:0] age",
-        &|b| format!("24'(age) * 24'd{}", schedule.period[b.index()]),
-    );
     function("rate_stop_end", "logic [15:0]", "", &|b| {
         format!("16'd{}", search.channel_figures(b).stop_end)
     });

@@ -15,8 +15,9 @@
 // edge as the clocks a next edge would still cancel it within (cancel_left_q: 0 for none), the
 // decision as the clocks to it; the measurement's start as the clocks since it (since_t0_q,
 // wide enough for a start bit and a character, free-running between measurements), and the
-// line's last edge as its age (the search's, shared). The detection's start is since_t0_o less
-// offset_o, worked out once in autobaud.v for the channel that goes out.
+// line's last edge as its age (the search's, shared). The detection's age goes out in clocks
+// (start_clocks_o: the samples since the start the step chose, times the period), so the top
+// compares it with its count of the trial's clocks and multiplies nothing.
 // The logic is autobaud_channel_step.v's; this keeps its registers and its sample enable.
 `default_nettype none
 

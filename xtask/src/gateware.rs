@@ -142,7 +142,7 @@ pub fn run(args: &[String]) -> Result<()> {
     println!(
         "  the receive path's top on the part (gateware/rtl/transceiver.v): {top_used}/{total} logic cells ({}%), Fmax {top_fmax:.1} MHz{}",
         top_used * 100 / total.max(1),
-        if top_fmax < clock_mhz { " (under the clock: issue 27, README \"Gateware\" has the path that decides it)" } else { "" }
+        if top_fmax < clock_mhz { " (under the clock: issue 27, README \"Gateware\" has what limits it)" } else { "" }
     );
     println!(
         "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} rx_top_cells={top_used}/{total} rx_top_fmax_mhz={top_fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: the top has no transmitter, pins or timing yet)",

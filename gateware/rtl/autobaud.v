@@ -38,6 +38,9 @@ module autobaud #(
   // With a detection: its channel's idle line's pending edge, as the samples within which a
   // next edge still cancels it (0: none); the transceiver's copy of that line goes on from it.
   output logic [PendWidth-1:0] pending_left_o,
+  // With a detection: its channel's idle line rose after the character's end (the
+  // transceiver's copy then counts from the decision).
+  output logic                rose_after_end_o,
   // Each channel samples the line on this clock (the receiver takes the line at its rate's).
   output wire  [9:0]          samples_o,
   output wire  [9:0]          measuring_o
@@ -51,6 +54,7 @@ module autobaud #(
   logic [Rates*8-1:0]         bytes;
   logic [Rates*ClocksWidth-1:0] start_clocks;
   logic [Rates*PendWidth-1:0] cancel_left;
+  logic [Rates-1:0]           rose_after_end;
 
   always_comb begin
     for (int r = 0; r < Rates; r++) heard[r] = heard_valid_i && heard_i == 4'(r);
@@ -62,6 +66,7 @@ module autobaud #(
     reject_code_o = '0;
     start_clocks_o = '0;
     pending_left_o = '0;
+    rose_after_end_o = 1'b0;
     for (int r = 0; r < Rates; r++) begin
       if (reject[r]) begin
         valid_o       = 1'b1;
@@ -79,6 +84,7 @@ module autobaud #(
         byte_o        = bytes[r*8 +: 8];
         reject_code_o = '0;
         pending_left_o = cancel_left[r*PendWidth +: PendWidth];
+        rose_after_end_o = rose_after_end[r];
         start_clocks_o = start_clocks[r*ClocksWidth +: ClocksWidth];
       end
     end

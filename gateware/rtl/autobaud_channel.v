@@ -66,6 +66,8 @@ module autobaud_channel #(
   output wire [ClocksWidth-1:0]   start_clocks_o,
   // With a detection: the samples within which a next edge cancels the idle line's last one.
   output wire [PendOutWidth-1:0]  cancel_left_o,
+  // With a detection: the idle line rose after the character's end (Detection::rose_after_end).
+  output wire                 rose_after_end_o,
   // The channel samples the line on this clock.
   output wire                 sample_o,
   output wire                 measuring_o
@@ -95,6 +97,13 @@ module autobaud_channel #(
   assign since_start    = from_alt ? since_alt : since_t0;
   assign start_clocks_o = ClocksWidth'(since_start) * ClocksWidth'(Period);
 
+  // The idle line's high is Tsyn - 1 - high_left samples old, the character's end
+  // since_start - StopEnd: it rose after the end when the first is the younger (a high
+  // TSYN old or older is before it).
+  localparam int EndWidth = (IdleWidth > TimeWidth ? IdleWidth : TimeWidth) + 1;
+  logic [IdleWidth-1:0] high_left;
+  assign rose_after_end_o = EndWidth'(high_left) + EndWidth'(since_start)
+                            > EndWidth'(Tsyn - 1 + StopEnd);
   // The channel's samples: every Period clocks, from tick Phase. Between them it holds.
   assign sample  = phase_q == '0;
   assign sample_o = sample;
@@ -135,6 +144,7 @@ module autobaud_channel #(
     .alt_o                (alt),
     .from_alt_o           (from_alt),
     .cancel_left_o        (cancel_left),
+    .high_left_o          (high_left),
     .measuring_o,
     .measuring_next_o     ()
   );

@@ -65,6 +65,10 @@ module autobaud_channel_step #(
   // leaves them (0: none can): the detecting channel's goes to the transceiver's own copy of
   // the rate's idle line (Detection::pending).
   output wire [PendWidth-1:0]  cancel_left_o,
+  // The samples the idle line's high still lacks of TSYN, as this clock leaves them: with
+  // since_t0_o, alt_o and from_alt_o, whether it rose after the detected character's end
+  // (Detection::rose_after_end).
+  output wire [IdleWidth-1:0]  high_left_o,
   // A measurement under way, in state_i and in state_o: the packed layout stays known here.
   output wire                  measuring_o,
   output wire                  measuring_next_o
@@ -250,6 +254,7 @@ module autobaud_channel_step #(
   assign alt_o         = alt_q;
   assign from_alt_o    = from_alt_chosen;
   assign cancel_left_o = cancel_left_d;
+  assign high_left_o   = high_left_d;
   assign measuring_o   = measuring_q;
   assign measuring_next_o = measuring_d;
 

@@ -42,6 +42,8 @@ module autobaud_shared #(
   output wire [ClocksWidth-1:0]   start_clocks_o,
   // The deciding channel's samples within which a next edge cancels its idle line's last one.
   output wire [PendOutWidth-1:0]  cancel_left_o,
+  // The deciding channel's idle line rose after its character's end.
+  output wire                     rose_after_end_o,
   // Each channel samples the line on this clock (only the one in turn can).
   output wire [Slots-1:0]         samples_o,
   output wire [Slots-1:0]         measuring_o
@@ -73,6 +75,10 @@ module autobaud_shared #(
   logic [IdleWidth-1:0]  tsyn, tsyn_less_one;
   logic [TimeWidth-1:0]  to_middle, middle_to_end, start_bit;
   logic [FrameWidth-1:0] frames_less_one;
+  // TSYN less one and the stop bit's end, added: the idle line's high plus the start's age
+  // passes it when the line rose after the character's end (autobaud_channel.v).
+  localparam int EndWidth = (IdleWidth > TimeWidth ? IdleWidth : TimeWidth) + 1;
+  logic [EndWidth-1:0]   tsyn_past_end;
 
   // The table's widths.
   localparam int P = PhaseWidth;
@@ -80,12 +86,13 @@ module autobaud_shared #(
   localparam int I = IdleWidth;
   localparam int T = TimeWidth;
   localparam int F = FrameWidth;
+  localparam int E = EndWidth;
 
   always_comb begin
     inc = '0; modulo = '0; quarter = '0; three_quarters = '0; half_less_inc = '0;
     two_inc = '0; modulo_less_inc = '0; modulo_less_two_inc = '0; glitch = '0;
     edge_reset = '0; tsyn = '0; tsyn_less_one = '0; to_middle = '0; middle_to_end = '0;
-    start_bit = '0; frames_less_one = '0;
+    start_bit = '0; frames_less_one = '0; tsyn_past_end = '0;
     case (slot_q)
 `include "autobaud_slots.svh"
       default: ;
@@ -112,6 +119,8 @@ module autobaud_shared #(
   assign period         = ClocksWidth'(Slots) * (ClocksWidth'(frames_less_one) + 1'b1);
   assign since_start    = from_alt ? since_alt : since_t0;
   assign start_clocks_o = ClocksWidth'(since_start) * period;
+  logic [IdleWidth-1:0]   high_left;
+  assign rose_after_end_o = EndWidth'(high_left) + EndWidth'(since_start) > tsyn_past_end;
 
   assign reset_state = {1'b1, edge_reset, PendWidth'(0), tsyn, tsyn, 1'b0, TimeWidth'(0),
                         TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset, ReaderReset};
@@ -163,6 +172,7 @@ module autobaud_shared #(
     .alt_o                (alt),
     .from_alt_o           (from_alt),
     .cancel_left_o        (cancel_left),
+    .high_left_o          (high_left),
     .measuring_o          (),
     .measuring_next_o     (measuring_next)
   );

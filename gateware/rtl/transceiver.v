@@ -118,6 +118,9 @@ module transceiver #(
   // Its age in clocks.
   logic [IW-1:0] dp_age_q;
   logic [PendWidth-1:0] dp_left_q;
+  // Its channel's idle line rose after the character's end: the copy counts from the decision.
+  logic        dp_rose_q;
+  logic [31:0] det_idle_from;
   logic        dp_fell_q;
   // Its clock, start and end (stage 3).
   logic [31:0] det_at, det_start, det_end;
@@ -142,11 +145,13 @@ module transceiver #(
   logic [1:0]  s_reject_unused;
   logic [IW-1:0] s_age;
   logic [PendWidth-1:0] s_pending_left;
+  logic        s_rose_after_end;
   wire  [9:0]  samples, measuring_unused;
   autobaud #(.Oversampled(1), .PendWidth(PendWidth)) u_search (
     .clk_i, .rst_ni, .level_i(level), .heard_valid_i(rx_on_m), .heard_i(rate_m),
     .valid_o(s_valid), .detect_o(s_detect), .rate_o(s_rate), .byte_o(s_byte),
     .reject_code_o(s_reject_unused), .start_clocks_o(s_age), .pending_left_o(s_pending_left),
+    .rose_after_end_o(s_rose_after_end),
     .samples_o(samples), .measuring_o(measuring_unused)
   );
 
@@ -261,8 +266,8 @@ module transceiver #(
   rate_idle #(.PendWidth(PendWidth)) u_det_idle (
     .clk_i, .rst_ni, .now_i(now_q), .glitch_i(rate_glitch(dp_rate_q)),
     .sample_i(samples[dp_rate_q]), .edge_i(changed[dp_rate_q]), .level_i(level),
-    .restore_i(1'b1), .restore_cancel_left_i(dp_left_q), .restore_high_since_i(det_end),
-    .restore_high_before_i(det_end),
+    .restore_i(1'b1), .restore_cancel_left_i(dp_left_q), .restore_high_since_i(det_idle_from),
+    .restore_high_before_i(det_idle_from),
     .load_i(1'b0), .load_cancel_left_i('0), .load_high_since_i('0), .load_high_before_i('0),
     .cancel_left_o(det_left_unused), .high_since_o(det_since_unused),
     .high_before_o(det_before_unused),
@@ -382,6 +387,7 @@ module transceiver #(
     det_age   = dp_age_q;
     det_start = det_at - 32'(det_age);
     det_end   = det_start + 32'(rate_stop_end(dp_rate_q));
+    det_idle_from = dp_rose_q ? det_at : det_end;
     // The receiver's own rate, or the trial's own start delimiter read at a slower rate.
     ignored   = (rx_on_m && rate_m == dp_rate_q)
              || (state_m == Trial && since_trial_q <= det_age);
@@ -435,7 +441,7 @@ module transceiver #(
       det_end_d         = det_end;
       // Handed over as of the detection's clock: its fall there, or one on this clock.
       rx_hand_over      = 1'b1;
-      rx_hand_over_idle = idle_since(dp_fell_q ? det_at : now_q, det_end);
+      rx_hand_over_idle = idle_since(dp_fell_q ? det_at : now_q, det_idle_from);
       rx_hand_over_fell_last = dp_fell_q;
     end
   end
@@ -504,6 +510,7 @@ module transceiver #(
       dp_byte_q     <= '0;
       dp_age_q      <= '0;
       dp_left_q     <= '0;
+      dp_rose_q     <= 1'b0;
       dp_fell_q     <= 1'b0;
       verdict_q          <= 1'b0;
       verdict_good_q     <= 1'b0;
@@ -525,6 +532,7 @@ module transceiver #(
       dp_byte_q     <= s_byte;
       dp_age_q      <= s_age;
       dp_left_q     <= s_pending_left;
+      dp_rose_q     <= s_rose_after_end;
       dp_fell_q     <= changed[s_rate] && !held_d[s_rate];
       verdict_q          <= verdict_d;
       verdict_good_q     <= verdict_good_d;

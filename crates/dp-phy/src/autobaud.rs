@@ -76,6 +76,24 @@ pub struct Detection {
     /// edge of its idle line that a next one within the rate's glitch length would cancel.
     /// The receiver's idle line at the rate goes on from it (`Transceiver`'s `RateIdle`).
     pub pending: Tick,
+    /// The detecting channel's idle line rose after the character's end, before the decision:
+    /// a decision that waited for a second candidate's stop bit, with the next start bit (or a
+    /// glitch longer than the rate's) in between. The receiver's idle line at the rate then
+    /// counts from the decision, as its receiver does (it is handed no edges), never longer
+    /// than the channel's.
+    pub rose_after_end: bool,
+}
+
+impl Detection {
+    /// The tick the rate's line counts as idle from, for a detection decided on tick
+    /// `decided_at`: the character's end, or the decision if the line rose after that end.
+    pub fn idle_from(&self, decided_at: Tick) -> Tick {
+        if self.rose_after_end {
+            decided_at
+        } else {
+            self.end
+        }
+    }
 }
 
 /// Why a measured character was not taken (for statistics and tests).
@@ -388,6 +406,7 @@ impl AutoBaud {
             }
             let decided = self.decide(r, c, now, level).map(|d| Detection {
                 pending: q.pending[r],
+                rose_after_end: q.high_since[r] > d.end,
                 ..d
             });
             if heard.is_some() && decided.is_err() {
@@ -601,6 +620,7 @@ impl AutoBaud {
             start,
             end: start + w.stop_end,
             pending: Tick::MAX,
+            rose_after_end: false,
         })
     }
 

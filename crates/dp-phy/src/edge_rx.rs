@@ -479,12 +479,14 @@ impl EdgeRx {
         c.map(|c| (c, idle_before))
     }
 
-    /// After the search decided, at `now`, a character that started at `start` and ends at
-    /// `end`: the receiver on its rate, which did not exist before, starts on this clock. A
-    /// fall on it (the line `fell`) opens its next character; a fall before `now` is not seen
-    /// (README "Gateware": the search hands over no edges). The search decides at the middle
-    /// of the character's stop bit or later, so that fall is no part of it.
-    pub fn hand_over(&self, start: Tick, end: Tick, now: Tick, fell: bool, q: &mut EdgeRxQ) {
+    /// After the search decided, at `now`, a character that started at `start`, with the line
+    /// idle since `idle_from` (the character's end, or the decision if the line rose after
+    /// that end: `Detection::rose_after_end`): the receiver on its rate, which did not exist
+    /// before, starts on this clock. A fall on it (the line `fell`) opens its next character; a
+    /// fall before `now` is not seen (README "Gateware": the search hands over no edges). The
+    /// search decides at the middle of the character's stop bit or later, so that fall is no
+    /// part of it.
+    pub fn hand_over(&self, start: Tick, idle_from: Tick, now: Tick, fell: bool, q: &mut EdgeRxQ) {
         debug_assert!(
             start + self.stop_middle <= now,
             "decided before its stop bit's middle"
@@ -499,7 +501,7 @@ impl EdgeRx {
             ..EDGE_RX_RESET
         };
         if fell {
-            self.on_edge(now, false, now.saturating_sub(end), q);
+            self.on_edge(now, false, now.saturating_sub(idle_from), q);
         }
     }
 }

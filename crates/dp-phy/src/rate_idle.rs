@@ -9,7 +9,10 @@
 //! takes the detected character's end as its high ticks: the transceiver only ever counts
 //! through `max(last_end, high_since)`, and `last_end` is that end or later from then on, so
 //! the sum is the channel's own at every clock (the test below holds it, and debug builds of
-//! the transceiver check it at every clock).
+//! the transceiver check it at every clock). Unless the channel's line rose after that end
+//! before the decision (`Detection::rose_after_end`: a decision that waited for a second
+//! candidate start, with the next start bit in between): the copy then takes the decision's
+//! tick, and counts no longer than the channel, from where the receiver starts.
 //!
 //! Why: the gateware's search keeps those registers as the samples they still lack of TSYN,
 //! the six slowest channels in block RAM, read only in their turn; the transceiver's top
@@ -38,12 +41,16 @@ pub const RATE_IDLE_NONE: RateIdle = RateIdle {
 };
 
 impl RateIdle {
-    /// Going on from the search's channel at `detection`.
-    pub fn from_detection(detection: &Detection) -> RateIdle {
+    /// Going on from the search's channel at `detection`, decided on tick `decided_at`: high
+    /// since the character's end, or since the decision if the channel's line rose after that
+    /// end (the copy cannot know when: it counts no longer than the channel, and from where
+    /// the receiver starts).
+    pub fn from_detection(detection: &Detection, decided_at: Tick) -> RateIdle {
+        let from = detection.idle_from(decided_at);
         RateIdle {
             pending: detection.pending,
-            high_since: detection.end,
-            high_before: detection.end,
+            high_since: from,
+            high_before: from,
         }
     }
 
@@ -78,24 +85,33 @@ mod tests {
     /// started at a detection takes the channel's changes from then on; `max(end, high_since)`
     /// must be the channel's at every clock. Returns the detections of the delimiter.
     fn compare(baud: Baud, ppm: i32, at: u64, len: u64, later: &[(u64, u64)]) -> usize {
+        let master = BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm);
+        let bit = master.clocks_per_bit();
+        let stop = master.clocks_for(10, 1);
+        let mut glitches = vec![(stop + at, len)];
+        glitches.extend(later.iter().map(|&(from, n)| (stop + bit + from, n)));
+        compare_with_glitches(baud, ppm, &glitches).0
+    }
+
+    /// As [`compare`], with glitches (clocks from the delimiter's start edge, clocks long)
+    /// anywhere. A copy from a detection whose line rose after its end must count no longer
+    /// than the channel. Returns the detections of the delimiter, and those of them.
+    fn compare_with_glitches(baud: Baud, ppm: i32, at_from_start: &[(u64, u64)]) -> (usize, usize) {
         let search = AutoBaud::sampled(DEFAULT_CLOCK_HZ, OVERSAMPLED);
         let r = baud.index();
         let glitch = search.channel_figures(baud).glitch;
         let master = BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm);
-        let bit = master.clocks_per_bit();
         let t0 = master.clocks_for(40, 1);
         let bits: Vec<bool> = [dp_consts::SD2, 0x05, 0x05]
             .iter()
             .flat_map(|&b| char_bits(b))
             .collect();
-        let stop = t0 + master.clocks_for(10, 1);
-        let mut glitches = vec![(stop + at, len)];
-        glitches.extend(later.iter().map(|&(from, n)| (stop + bit + from, n)));
+        let glitches: Vec<(u64, u64)> = at_from_start.iter().map(|&(at, n)| (t0 + at, n)).collect();
         let end = t0 + master.clocks_for(bits.len() as u64 + 30, 1);
         let mut q = AUTOBAUD_RESET;
-        let mut copy: Option<(RateIdle, Tick)> = None;
+        let mut copy: Option<(RateIdle, Tick, bool)> = None;
         let mut level = true;
-        let mut detections = 0;
+        let (mut detections, mut late_detections) = (0, 0);
         for now in 0..end {
             let clean = now < t0 || {
                 let i = ((now - t0) * master.inc / master.modulo) as usize;
@@ -117,24 +133,49 @@ mod tests {
             level = line;
             let held = q.held[r];
             let det = search.clock(now, out, None, &mut q);
-            if let Some((idle, _)) = &mut copy {
+            if let Some((idle, _, _)) = &mut copy {
                 if q.held[r] != held {
                     idle.edge(now, q.held[r], glitch);
                 }
             }
             if let Some(Ok(d)) = det.filter(|d| d.is_ok_and(|d| d.baud == baud)) {
                 detections += 1;
-                copy = Some((RateIdle::from_detection(&d), d.end));
+                late_detections += usize::from(d.rose_after_end);
+                copy = Some((RateIdle::from_detection(&d, now), d.end, d.rose_after_end));
             }
-            if let Some((idle, from)) = copy {
-                assert_eq!(
-                    from.max(idle.high_since),
-                    from.max(q.high_since[r]),
-                    "{baud} {ppm} ppm, glitch {at}+{len}: at {now}"
-                );
+            if let Some((idle, from, late)) = copy {
+                let (ours, channel) = (from.max(idle.high_since), from.max(q.high_since[r]));
+                let at = format!("{baud} {ppm} ppm, glitches {at_from_start:?}: at {now}");
+                if late {
+                    assert!(ours >= channel, "{at}: longer than the channel's");
+                } else {
+                    assert_eq!(ours, channel, "{at}");
+                }
             }
         }
-        detections
+        (detections, late_detections)
+    }
+
+    #[test]
+    fn a_copy_from_a_detection_decided_after_the_next_start_bit_counts_no_longer() {
+        // Fast by 5,000 ppm, a high glitch late in the start bit: the fall after it is a second
+        // candidate start, and the decision waits for its stop bit, past the delimiter's end
+        // and the next character's start bit (0x05 sends a 1 first: the line rises). Some
+        // glitches make the decision come after that rise. Found at the five slowest rates;
+        // at 500k and faster no glitch of this set does it: the channel's samples fall so
+        // that the decision comes before the rise.
+        for baud in &Baud::ALL[..5] {
+            let bit = BitTiming::new(DEFAULT_CLOCK_HZ, *baud, 0).clocks_per_bit();
+            let late: usize = (60..100)
+                .step_by(2)
+                .flat_map(|at| [10, 30].map(|len| (at, len)))
+                .map(|(at, len)| {
+                    let glitch = (at * bit / 100, (len * bit / 100).max(1));
+                    compare_with_glitches(*baud, 5000, &[glitch]).1
+                })
+                .sum();
+            assert!(late > 0, "{baud}: no detection decided after the line rose");
+        }
     }
 
     #[test]

@@ -160,6 +160,11 @@ pub struct Transceiver {
     /// rate (what the lock goes on with if the trial fails).
     rx_idle: RateIdle,
     fallback_idle: RateIdle,
+    /// Debug builds' check, no register: whether `rx_idle` and `fallback_idle` went on from a
+    /// detection whose line rose after its end (`Detection::rose_after_end`). Such a copy
+    /// counts no longer than the rate's channel; any other, exactly as long.
+    #[cfg(debug_assertions)]
+    late_copies: (bool, bool),
     /// The character the receiver decided on the last clock, with the idle clocks before it:
     /// delivered on this one, first thing. A register between the receiver's decision and the
     /// delimiter, as the gateware has it (README "Gateware": the decision's logic and the
@@ -227,6 +232,8 @@ impl Transceiver {
             last_end: 0,
             rx_idle: RATE_IDLE_NONE,
             fallback_idle: RATE_IDLE_NONE,
+            #[cfg(debug_assertions)]
+            late_copies: (false, false),
             decided: None,
             detected: None,
             detection: None,
@@ -348,12 +355,24 @@ impl Transceiver {
                     && self.decided.is_none() =>
             {
                 let since = self.last_end.max(self.rx_idle.high_since);
-                debug_assert_eq!(
-                    since,
-                    self.last_end.max(self.search_q.high_since[b.index()]),
-                    "the receiver's idle line is not its rate's channel's at {}",
-                    self.now
-                );
+                #[cfg(debug_assertions)]
+                {
+                    let channel = self.last_end.max(self.search_q.high_since[b.index()]);
+                    if self.late_copies.0 {
+                        debug_assert!(
+                            since >= channel,
+                            "the receiver's idle line is longer than its rate's channel's at {}",
+                            self.now
+                        );
+                    } else {
+                        debug_assert_eq!(
+                            since,
+                            channel,
+                            "the receiver's idle line is not its rate's channel's at {}",
+                            self.now
+                        );
+                    }
+                }
                 Some(since)
             }
             _ => None,
@@ -519,6 +538,10 @@ impl Transceiver {
             BaudState::Locked(b) => {
                 self.fallback = Some(b);
                 self.fallback_idle = self.rx_idle;
+                #[cfg(debug_assertions)]
+                {
+                    self.late_copies.1 = self.late_copies.0;
+                }
             }
             // A trial from a lock keeps that lock as its fallback.
             BaudState::Trial(_) => {}
@@ -528,7 +551,14 @@ impl Transceiver {
         let b = d.baud.index();
         let level = self.search_q.held[b];
         let changed = level != held[b];
-        self.rx_idle = RateIdle::from_detection(d);
+        // Decided on the last clock: the line counts as idle from the character's end, or from
+        // there if it rose after that end (the receiver is handed no edges before it).
+        let idle_from = d.idle_from(self.now - 1);
+        self.rx_idle = RateIdle::from_detection(d, self.now - 1);
+        #[cfg(debug_assertions)]
+        {
+            self.late_copies.0 = d.rose_after_end;
+        }
         if changed {
             self.rx_idle
                 .edge(self.now, level, self.search.glitch_clocks(d.baud));
@@ -537,12 +567,12 @@ impl Transceiver {
         if let Some(rx) = self.rx {
             // Handed over on the detection's clock, then this clock's step, as `tick` takes
             // it: the receiver is what it would be had it started there.
-            rx.hand_over(d.start, d.end, self.now - 1, fell, &mut self.rx_q);
+            rx.hand_over(d.start, idle_from, self.now - 1, fell, &mut self.rx_q);
             if changed {
                 let idle = if level {
                     0
                 } else {
-                    self.now.saturating_sub(d.end)
+                    self.now.saturating_sub(idle_from)
                 };
                 rx.on_edge(self.now, level, idle, &mut self.rx_q);
             }
@@ -606,6 +636,10 @@ impl Transceiver {
                             self.stats.relock_trials_failed += 1;
                             self.use_rate(locked);
                             self.rx_idle = self.fallback_idle;
+                            #[cfg(debug_assertions)]
+                            {
+                                self.late_copies.0 = self.late_copies.1;
+                            }
                             self.state = BaudState::Locked(locked);
                             out.baud_changed = true;
                         }

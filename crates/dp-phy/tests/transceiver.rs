@@ -812,6 +812,16 @@ fn fast_equals_strict_9k6_glitches_found_by_a_long_campaign() {
     strict_equals_fast(18393667802148869572, Baud::B9600, -3084, true);
 }
 
+/// Found by CI's `fast_equals_strict` (debug build): at 93.75k with glitches, a detection
+/// decided at a second candidate's stop bit came after the next character's start bit and its
+/// rise; the idle line copied at the detection counted from the delimiter's end, a bit longer
+/// than the search's channel. It now counts from the decision (`Detection::rose_after_end`),
+/// never longer than the channel, as debug builds check at every clock.
+#[test]
+fn fast_equals_strict_93k75_a_detection_decided_after_the_next_rise() {
+    strict_equals_fast(10251962726419476033, Baud::B93750, 1108, true);
+}
+
 /// The body of `a_rate_change_relocks_without_the_watchdog`, for its cases kept as tests.
 fn relocks_without_the_watchdog(
     from: usize,

@@ -148,7 +148,7 @@ pub fn channels_svh() -> String {
                  .byte_o(bytes[{r} * 8 +: 8]),\n      \
                  .start_clocks_o(start_clocks[{r} * ClocksWidth +: ClocksWidth]),\n      \
                  .cancel_left_o(cancel_left[{r} * PendWidth +: PendWidth]), .sample_o(samples_o[{r}]),\n      \
-                 .measuring_o(measuring_o[{r}])\n    );\n",
+                 .rose_after_end_o(rose_after_end[{r}]), .measuring_o(measuring_o[{r}])\n    );\n",
                 f.period,
                 f.phase,
                 c.inc,
@@ -201,6 +201,7 @@ fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> 
          logic [1:0] shared_code;\n    logic [7:0] shared_byte;\n    \
          logic [ClocksWidth-1:0] shared_clocks;\n    \
          logic [PendWidth-1:0] shared_cancel;\n    \
+         logic shared_rose;\n    \
          autobaud_shared #(\n      \
          .Slots({slots}), .PhaseWidth({phase_w}), .IdleWidth({idle_w}), .PendWidth({pend_w}),\n      \
          .TimeWidth({time_w}), .AltWidth({alt_w}), .FrameWidth({}),\n      \
@@ -210,12 +211,14 @@ fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> 
          .heard_i(heard[{last}:0]), .heard_any_i(heard_valid_i), .detect_o(detect[{last}:0]),\n      \
          .reject_o(reject[{last}:0]), .reject_code_o(shared_code), .byte_o(shared_byte),\n      \
          .start_clocks_o(shared_clocks), .cancel_left_o(shared_cancel),\n      \
+         .rose_after_end_o(shared_rose),\n      \
          .samples_o(samples_o[{last}:0]), .measuring_o(measuring_o[{last}:0])\n    );\n    \
          for (genvar r = 0; r < {slots}; r++) begin : g_shared\n      \
          assign reject_code[r * 2 +: 2] = shared_code;\n      \
          assign bytes[r * 8 +: 8] = shared_byte;\n      \
          assign start_clocks[r * ClocksWidth +: ClocksWidth] = shared_clocks;\n      \
-         assign cancel_left[r * PendWidth +: PendWidth] = shared_cancel;\n    \
+         assign cancel_left[r * PendWidth +: PendWidth] = shared_cancel;\n      \
+         assign rose_after_end[r] = shared_rose;\n    \
          end\n",
         bits_for(frames - 1).max(1),
     );
@@ -231,7 +234,8 @@ pub fn slots_svh() -> String {
     let mut s = String::from(SVH_HEADER);
     s.push_str(
         "// autobaud_shared.v's table: the figures of the channel in turn, at its widths (P phase,\n\
-         // G pending edge, I idle line, T measurement, F frames).\n",
+         // G pending edge, I idle line, T measurement, F frames, E an idle line and a measurement\n\
+         // added).\n",
     );
     for r in (0..Baud::ALL.len()).filter(|&r| is_shared(&schedule, r)) {
         let baud = Baud::ALL[r];
@@ -250,7 +254,7 @@ pub fn slots_svh() -> String {
              modulo_less_inc = P'({}); modulo_less_two_inc = P'({});\n        \
              glitch = G'({}); edge_reset = G'({edge_reset}); tsyn = I'({}); tsyn_less_one = I'({});\n        \
              to_middle = T'({}); middle_to_end = T'({}); start_bit = T'({});\n        \
-             frames_less_one = F'({});\n      \
+             frames_less_one = F'({}); tsyn_past_end = E'({});\n      \
              end\n",
             f.period,
             f.phase,
@@ -269,6 +273,7 @@ pub fn slots_svh() -> String {
             n.stop_end - n.stop_middle - 1,
             f.start_bit_clocks,
             f.period / SHARED_SLOTS - 1,
+            n.tsyn - 1 + n.stop_end,
         );
     }
     s

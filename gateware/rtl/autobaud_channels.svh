@@ -10,6 +10,7 @@
     logic [7:0] shared_byte;
     logic [ClocksWidth-1:0] shared_clocks;
     logic [PendWidth-1:0] shared_cancel;
+    logic shared_rose;
     autobaud_shared #(
       .Slots(6), .PhaseWidth(7), .IdleWidth(10), .PendWidth(4),
       .TimeWidth(9), .AltWidth(5), .FrameWidth(6),
@@ -19,6 +20,7 @@
       .heard_i(heard[5:0]), .heard_any_i(heard_valid_i), .detect_o(detect[5:0]),
       .reject_o(reject[5:0]), .reject_code_o(shared_code), .byte_o(shared_byte),
       .start_clocks_o(shared_clocks), .cancel_left_o(shared_cancel),
+      .rose_after_end_o(shared_rose),
       .samples_o(samples_o[5:0]), .measuring_o(measuring_o[5:0])
     );
     for (genvar r = 0; r < 6; r++) begin : g_shared
@@ -26,6 +28,7 @@
       assign bytes[r * 8 +: 8] = shared_byte;
       assign start_clocks[r * ClocksWidth +: ClocksWidth] = shared_clocks;
       assign cancel_left[r * PendWidth +: PendWidth] = shared_cancel;
+      assign rose_after_end[r] = shared_rose;
     end
 
 
@@ -44,7 +47,7 @@
       .byte_o(bytes[6 * 8 +: 8]),
       .start_clocks_o(start_clocks[6 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[6 * PendWidth +: PendWidth]), .sample_o(samples_o[6]),
-      .measuring_o(measuring_o[6])
+      .rose_after_end_o(rose_after_end[6]), .measuring_o(measuring_o[6])
     );
 
     // 3M, a sample every 1 clock(s) from tick 0
@@ -62,7 +65,7 @@
       .byte_o(bytes[7 * 8 +: 8]),
       .start_clocks_o(start_clocks[7 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[7 * PendWidth +: PendWidth]), .sample_o(samples_o[7]),
-      .measuring_o(measuring_o[7])
+      .rose_after_end_o(rose_after_end[7]), .measuring_o(measuring_o[7])
     );
 
     // 6M, a sample every 1 clock(s) from tick 0
@@ -80,7 +83,7 @@
       .byte_o(bytes[8 * 8 +: 8]),
       .start_clocks_o(start_clocks[8 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[8 * PendWidth +: PendWidth]), .sample_o(samples_o[8]),
-      .measuring_o(measuring_o[8])
+      .rose_after_end_o(rose_after_end[8]), .measuring_o(measuring_o[8])
     );
 
     // 12M, a sample every 1 clock(s) from tick 0
@@ -98,7 +101,7 @@
       .byte_o(bytes[9 * 8 +: 8]),
       .start_clocks_o(start_clocks[9 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[9 * PendWidth +: PendWidth]), .sample_o(samples_o[9]),
-      .measuring_o(measuring_o[9])
+      .rose_after_end_o(rose_after_end[9]), .measuring_o(measuring_o[9])
     );
   end
 
@@ -119,7 +122,7 @@
       .byte_o(bytes[0 * 8 +: 8]),
       .start_clocks_o(start_clocks[0 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[0 * PendWidth +: PendWidth]), .sample_o(samples_o[0]),
-      .measuring_o(measuring_o[0])
+      .rose_after_end_o(rose_after_end[0]), .measuring_o(measuring_o[0])
     );
 
     // 19.2k, a sample every 1 clock(s) from tick 0
@@ -137,7 +140,7 @@
       .byte_o(bytes[1 * 8 +: 8]),
       .start_clocks_o(start_clocks[1 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[1 * PendWidth +: PendWidth]), .sample_o(samples_o[1]),
-      .measuring_o(measuring_o[1])
+      .rose_after_end_o(rose_after_end[1]), .measuring_o(measuring_o[1])
     );
 
     // 45.45k, a sample every 1 clock(s) from tick 0
@@ -155,7 +158,7 @@
       .byte_o(bytes[2 * 8 +: 8]),
       .start_clocks_o(start_clocks[2 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[2 * PendWidth +: PendWidth]), .sample_o(samples_o[2]),
-      .measuring_o(measuring_o[2])
+      .rose_after_end_o(rose_after_end[2]), .measuring_o(measuring_o[2])
     );
 
     // 93.75k, a sample every 1 clock(s) from tick 0
@@ -173,7 +176,7 @@
       .byte_o(bytes[3 * 8 +: 8]),
       .start_clocks_o(start_clocks[3 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[3 * PendWidth +: PendWidth]), .sample_o(samples_o[3]),
-      .measuring_o(measuring_o[3])
+      .rose_after_end_o(rose_after_end[3]), .measuring_o(measuring_o[3])
     );
 
     // 187.5k, a sample every 1 clock(s) from tick 0
@@ -191,7 +194,7 @@
       .byte_o(bytes[4 * 8 +: 8]),
       .start_clocks_o(start_clocks[4 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[4 * PendWidth +: PendWidth]), .sample_o(samples_o[4]),
-      .measuring_o(measuring_o[4])
+      .rose_after_end_o(rose_after_end[4]), .measuring_o(measuring_o[4])
     );
 
     // 500k, a sample every 1 clock(s) from tick 0
@@ -209,7 +212,7 @@
       .byte_o(bytes[5 * 8 +: 8]),
       .start_clocks_o(start_clocks[5 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[5 * PendWidth +: PendWidth]), .sample_o(samples_o[5]),
-      .measuring_o(measuring_o[5])
+      .rose_after_end_o(rose_after_end[5]), .measuring_o(measuring_o[5])
     );
 
     // 1.5M, a sample every 1 clock(s) from tick 0
@@ -227,7 +230,7 @@
       .byte_o(bytes[6 * 8 +: 8]),
       .start_clocks_o(start_clocks[6 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[6 * PendWidth +: PendWidth]), .sample_o(samples_o[6]),
-      .measuring_o(measuring_o[6])
+      .rose_after_end_o(rose_after_end[6]), .measuring_o(measuring_o[6])
     );
 
     // 3M, a sample every 1 clock(s) from tick 0
@@ -245,7 +248,7 @@
       .byte_o(bytes[7 * 8 +: 8]),
       .start_clocks_o(start_clocks[7 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[7 * PendWidth +: PendWidth]), .sample_o(samples_o[7]),
-      .measuring_o(measuring_o[7])
+      .rose_after_end_o(rose_after_end[7]), .measuring_o(measuring_o[7])
     );
 
     // 6M, a sample every 1 clock(s) from tick 0
@@ -263,7 +266,7 @@
       .byte_o(bytes[8 * 8 +: 8]),
       .start_clocks_o(start_clocks[8 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[8 * PendWidth +: PendWidth]), .sample_o(samples_o[8]),
-      .measuring_o(measuring_o[8])
+      .rose_after_end_o(rose_after_end[8]), .measuring_o(measuring_o[8])
     );
 
     // 12M, a sample every 1 clock(s) from tick 0
@@ -281,6 +284,6 @@
       .byte_o(bytes[9 * 8 +: 8]),
       .start_clocks_o(start_clocks[9 * ClocksWidth +: ClocksWidth]),
       .cancel_left_o(cancel_left[9 * PendWidth +: PendWidth]), .sample_o(samples_o[9]),
-      .measuring_o(measuring_o[9])
+      .rose_after_end_o(rose_after_end[9]), .measuring_o(measuring_o[9])
     );
   end

@@ -8,7 +8,7 @@
 // detection, 2 rejection), rate, byte (a rejection: its code), start_clocks_o (u32, the
 // clocks since the character's start; 0 for a rejection, which names no rate or start in the model),
 // pending_left_o (u32, the samples within which a next edge cancels the detecting channel's
-// idle line's last one; 0 for a rejection).
+// idle line's last one; 0 for a rejection), rose_after_end_o (u8; 0 for a rejection).
 #include <memory>
 
 #include "Vautobaud.h"
@@ -39,13 +39,15 @@ int main(int argc, char** argv) {
         decision = {1, top->rate_o, top->byte_o};
         put(decision, top->start_clocks_o, 4);
         put(decision, top->pending_left_o, 4);
+        decision.push_back(top->rose_after_end_o);
       } else {
         decision = {2, 0, top->reject_code_o};
         put(decision, 0, 4);
         put(decision, 0, 4);
+        decision.push_back(0);
       }
     } else {
-      decision = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+      decision = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
     }
     if (heard != 0xFF && (top->samples_o >> heard & 1)) value |= 0b1000;
     top->clk_i = 1;

@@ -366,8 +366,7 @@ impl Transceiver {
                         );
                     } else {
                         debug_assert_eq!(
-                            since,
-                            channel,
+                            since, channel,
                             "the receiver's idle line is not its rate's channel's at {}",
                             self.now
                         );

@@ -368,13 +368,14 @@ impl SearchCase {
                     glitch.saturating_sub((self.now - d.pending) / period)
                 };
                 payload.extend((left as u32).to_le_bytes());
+                payload.push(u8::from(d.rose_after_end));
             }
             Some(Err(e)) => {
                 value |= 0b01;
                 payload.extend([2, 0, reject_code(e)]);
-                payload.extend([0; 8]);
+                payload.extend([0; 9]);
             }
-            None => payload.extend([0; 11]),
+            None => payload.extend([0; 12]),
         }
         if out.is_some() || mask != self.mask {
             self.events.push(Event {

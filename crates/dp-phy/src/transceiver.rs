@@ -115,6 +115,9 @@ pub struct Stats {
     /// Trials started from a lock that failed and returned to it.
     pub relock_trials_failed: u64,
     pub watchdog_expiries: u64,
+    /// Detections decided after their channel's line rose past the character's end
+    /// (`Detection::rose_after_end`): the receiver's idle line counted from the decision.
+    pub detections_after_rise: u64,
 }
 
 /// Internal signals worth a waveform.
@@ -558,6 +561,7 @@ impl Transceiver {
         {
             self.late_copies.0 = d.rose_after_end;
         }
+        self.stats.detections_after_rise += u64::from(d.rose_after_end);
         if changed {
             self.rx_idle
                 .edge(self.now, level, self.search.glitch_clocks(d.baud));

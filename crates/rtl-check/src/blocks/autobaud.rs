@@ -512,26 +512,49 @@ fn random_case(oversampled: bool, baud: Baud, seed: u64, clocks: u64) -> Case {
 /// idle line then has an edge a next one would still cancel (`Detection::pending`).
 fn stop_glitch_case(oversampled: bool, baud: Baud, ppm: i32, glitch: u64, shift: i64) -> Case {
     let master = BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm);
+    let middle = master.clocks_for(21, 2) as i64 + shift;
+    let name = format!("{baud}-stop-glitch-{ppm}ppm-{glitch}-at{shift}");
+    turned_case(oversampled, master, middle, glitch, name)
+}
+
+/// A start delimiter decided after the next character's start bit and its first bit's rise
+/// (`Detection::rose_after_end`): from a master 5,000 ppm fast, a high glitch `at` hundredths
+/// of a bit into the delimiter's start bit and `len` long. The fall after it is a second
+/// candidate start, whose stop bit the decision waits for.
+fn start_glitch_case(oversampled: bool, baud: Baud, at: u64, len: u64) -> Case {
+    let master = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 5000);
+    let bit = master.clocks_per_bit();
+    let name = format!("{baud}-start-glitch-{at}-{len}");
+    turned_case(
+        oversampled,
+        master,
+        (at * bit / 100) as i64,
+        (len * bit / 100).max(1),
+        name,
+    )
+}
+
+/// SD2, 5, 5, SD2 from `master` after 40 idle bits, the line turned over for `glitch` clocks
+/// from `at` clocks after the delimiter's start edge.
+fn turned_case(oversampled: bool, master: BitTiming, at: i64, glitch: u64, name: String) -> Case {
     let mut case = SearchCase::new(oversampled);
     let t0 = master.clocks_for(40, 1);
     let bits: Vec<bool> = [dp_consts::SD2, 0x05, 0x05, dp_consts::SD2]
         .iter()
         .flat_map(|&b| dp_phy::uart::char_bits(b))
         .collect();
-    let middle = (t0 + master.clocks_for(21, 2)) as i64 + shift;
+    let from = t0 as i64 + at;
     let end = t0 + master.clocks_for(bits.len() as u64 + 40, 1);
     for now in 0..end {
         let clean = now < t0 || {
             let bit = ((now - t0) * master.inc / master.modulo) as usize;
             bits.get(bit).copied().unwrap_or(true)
         };
-        let in_glitch = (middle..middle + glitch as i64).contains(&(now as i64));
-        case.clock(clean && !in_glitch, None);
+        let turned = (from..from + glitch as i64).contains(&(now as i64));
+        case.clock(clean != turned, None);
     }
     let build = if oversampled { "oversampled-" } else { "" };
-    case.finish(format!(
-        "autobaud-{build}{baud}-stop-glitch-{ppm}ppm-{glitch}-at{shift}"
-    ))
+    case.finish(format!("autobaud-{build}{name}"))
 }
 
 pub fn autobaud_cases(quick: bool, oversampled: bool) -> Vec<Case> {
@@ -568,6 +591,25 @@ pub fn autobaud_cases(quick: bool, oversampled: bool) -> Vec<Case> {
             for ppm in [3000, 5000] {
                 cases.push(stop_glitch_case(oversampled, baud, ppm, bit / 8 + 1, shift));
             }
+        }
+    }
+    // Glitches late in the start bit, as hundredths of a bit (at, length).
+    let late: &[(u64, u64)] = if quick {
+        &[(80, 10), (80, 20)]
+    } else {
+        &[
+            (64, 30),
+            (70, 30),
+            (76, 20),
+            (80, 10),
+            (80, 20),
+            (86, 10),
+            (90, 10),
+        ]
+    };
+    for &baud in &Baud::ALL[..6] {
+        for &(at, len) in late {
+            cases.push(start_glitch_case(oversampled, baud, at, len));
         }
     }
     cases
@@ -618,6 +660,28 @@ mod coverage {
                 .filter(|e| e.payload[2] == 1 && e.payload[9..13] != [0; 4])
                 .count();
             assert!(pending >= 10, "oversampled {oversampled}: {pending}");
+        }
+    }
+
+    /// The quick set has detections decided after their channel's line rose past the
+    /// character's end (the transceiver's copy of the line counts from the decision), in the
+    /// transceiver's build and the every-clock one.
+    #[test]
+    fn the_quick_cases_detect_after_the_next_rise() {
+        for oversampled in [true, false] {
+            let cases = autobaud_cases(true, oversampled);
+            let late: Vec<&str> = cases
+                .iter()
+                .filter(|c| {
+                    // Payload: mask (2), kind, rate, byte, start age (4), pending left (4),
+                    // rose after the end.
+                    c.model_events
+                        .iter()
+                        .any(|e| e.payload[2] == 1 && e.payload[13] == 1)
+                })
+                .map(|c| c.name.as_str())
+                .collect();
+            assert!(late.len() >= 6, "oversampled {oversampled}: {late:?}");
         }
     }
 }

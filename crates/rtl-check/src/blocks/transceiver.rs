@@ -349,6 +349,38 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
     (case, stats)
 }
 
+/// A start delimiter the search decides on after the next character's start bit and its
+/// first bit's rise: from power-up, a master 5,000 ppm fast sends an SD2 telegram (its LE, 5,
+/// sends a 1 first) with a high glitch in the delimiter's start bit, `at` hundredths of a bit
+/// into it and `len` long. The fall after the glitch is a second candidate start, and the
+/// decision waits for its stop bit. The receiver's idle line then counts from the decision
+/// (`Detection::rose_after_end`), and the polls after it are answered from there. Returns the
+/// case and the model's counters at its end.
+fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 5000);
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let mut tb = observed_bench(&recorder, timing);
+    let bit = timing.clocks_per_bit();
+    tb.bus.faults.add(FaultWindow {
+        start: timing.clocks_for(40, 1) + at * bit / 100,
+        len: (len * bit / 100).max(1),
+        fault: LineFault::Stuck(true),
+    });
+    tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 2));
+    for t in poll_sequence(&mut rng, 2) {
+        tb.send(40, &t);
+    }
+    tb.run_out(40, false);
+    let stats = tb.adapter.stats();
+    drop(tb);
+    let case = finish(
+        recorder,
+        format!("transceiver-late-decision-{baud}-{at}-{len}"),
+    );
+    (case, stats)
+}
+
 /// A master's clock off by up to 3,000 ppm, fixed by the seed and the rate.
 fn rng_ppm(seed: u64, b: Baud) -> i32 {
     ChaCha8Rng::seed_from_u64(seed ^ (b.index() as u64) << 32).gen_range(-3000..=3000)
@@ -372,7 +404,33 @@ pub fn transceiver_cases(quick: bool) -> Vec<Case> {
     };
     let mut cases: Vec<Case> = chosen.into_iter().map(sweep_case).collect();
     cases.extend(trials_cases(quick).into_iter().map(|(c, _)| c));
+    cases.extend(late_decision_cases(quick).into_iter().map(|(c, _)| c));
     cases
+}
+
+/// [`late_decision_case`]s: at 93.75k and 500k (`quick`), or at the six slowest rates, with
+/// glitches (hundredths of a bit: at, length) that the model decides late on.
+fn late_decision_cases(quick: bool) -> Vec<(Case, Stats)> {
+    let cases: &[(Baud, u64, u64)] = if quick {
+        &[(Baud::B93750, 80, 20), (Baud::B500000, 78, 20)]
+    } else {
+        &[
+            (Baud::B9600, 80, 20),
+            (Baud::B19200, 80, 20),
+            (Baud::B45450, 72, 20),
+            (Baud::B93750, 80, 20),
+            (Baud::B93750, 90, 10),
+            (Baud::B187500, 66, 30),
+            (Baud::B187500, 86, 10),
+            (Baud::B500000, 78, 20),
+            (Baud::B500000, 88, 10),
+        ]
+    };
+    cases
+        .iter()
+        .enumerate()
+        .map(|(i, &(baud, at, len))| late_decision_case(baud, at, len, 200 + i as u64))
+        .collect()
 }
 
 fn trials_cases(quick: bool) -> Vec<(Case, Stats)> {
@@ -397,6 +455,19 @@ mod tests {
     /// The quick set takes the paths the sweep seldom does: trials from a lock that fail and
     /// take it back (by a bad FCS and by a gap), trials from searching that fail, and the
     /// baud watchdog's expiry.
+    /// The late decisions' cases, quick and full, are decided after the next character's
+    /// rise (their idle line counts from the decision), and the polls after them are taken.
+    #[test]
+    fn the_late_decisions_take_their_path() {
+        for (case, stats) in late_decision_cases(true)
+            .into_iter()
+            .chain(late_decision_cases(false))
+        {
+            assert_eq!(stats.detections_after_rise, 1, "{}: {stats:?}", case.name);
+            assert_eq!(stats.telegrams_good, 2, "{}: {stats:?}", case.name);
+        }
+    }
+
     #[test]
     fn the_quick_trials_take_the_rare_paths() {
         for (case, stats) in trials_cases(true) {

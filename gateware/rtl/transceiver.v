@@ -1,5 +1,5 @@
-// The transceiver's receive path: dp_phy::transceiver::Transceiver's twin
-// (crates/dp-phy/src/transceiver.rs), its tick() clock for clock, the transmitter aside (next).
+// The transceiver: dp_phy::transceiver::Transceiver's twin (crates/dp-phy/src/transceiver.rs),
+// its tick() clock for clock, and its respond() and set_min_tsdr() as ports.
 //
 // The line (rx_i) goes through the synchroniser to the search, which samples it at every rate;
 // held_q keeps it as each rate last sampled it (the model's AutoBaudQ::held). The receiver, its
@@ -28,6 +28,10 @@
 //      its receiver.
 //   5. The baud watchdog, with no telegram or character under way as the clock began: its
 //      expiry searches again.
+//   6. The transmitter: a response waiting starts when the line was idle for min TSDR as the
+//      clock began, unless this clock changes the rate or searches again (which drop it and
+//      stop what goes out). A character that started while the transmitter drove the line is
+//      its own echo, not the delimiter's.
 // A reset of the delimiter or a rate's figures for it (use_rate) takes effect after its
 // character and its idle check, as the model's calls come; the watchdog's commands of the
 // clock come in order, the last one standing.
@@ -50,6 +54,9 @@
 `default_nettype none
 
 module transceiver #(
+  // 0: the receive path alone, the transmitter's ports tied off (cargo xtask gateware places
+  // it to follow the receive path's clock rate while the whole top does not fit the part).
+  parameter int Transmitter = 1,
   parameter int PhaseWidth = 7,
   parameter int PendWidth  = 12
 ) (
@@ -76,13 +83,29 @@ module transceiver #(
   output wire        in_telegram_o,
   output wire        rx_active_o,
   output wire        idle_o,
-  output wire [31:0] idle_since_o
+  output wire [31:0] idle_since_o,
+  // The transmitter. Min TSDR in bit times as set (Set_Prm; held, under 11 counts as 11).
+  input  wire [7:0]  min_tsdr_bits_i,
+  // A response (the model's respond()): respond_i for one clock, with its length and the tick
+  // it may start at the earliest; respond_ok_o says it is taken. Its bytes are in a
+  // synchronous-read buffer outside (the responder's block RAM), written at least a clock
+  // before, read at tx_rd_addr_o.
+  input  wire        respond_i,
+  input  wire [7:0]  respond_len_i,
+  input  wire [31:0] respond_not_before_i,
+  output wire        respond_ok_o,
+  output wire [7:0]  tx_rd_addr_o,
+  input  wire [7:0]  tx_rd_data_i,
+  // The line driven (the model's drive(): de_o with tx_o's level).
+  output wire        tx_o,
+  output wire        de_o
 );
   localparam int PW = PhaseWidth;
   localparam int IW = 24;
   localparam logic [1:0] Searching = 2'd0, Trial = 2'd1, Locked = 2'd2;
   localparam logic [7:0] SC = 8'hE5;
   localparam logic [3:0] StGood = 4'd0;
+  localparam logic [7:0] MinTsdrBits = 8'd11;
 
 `include "transceiver_rates.svh"
 
@@ -130,6 +153,21 @@ module transceiver #(
   logic        verdict_q, verdict_d, verdict_good_q, verdict_good_d;
   logic        verdict_confirms_q, verdict_confirms_d;
   logic [9:0]  held_q, held_d;
+  // A response taken and not yet started: its length and its earliest tick.
+  logic        pending_q, pending_d;
+  logic [7:0]  resp_len_q, resp_len_d;
+  logic [31:0] not_before_q, not_before_d;
+  // Min TSDR in clocks and the transmitter's bit it is worked out from (the model's
+  // tsdr_clocks, tx_bit_clocks): the multiply has a clock of its own. The setting it was
+  // worked out from, and whether the rate moved on the last clock: until both hold, the
+  // registers are not yet the rate's and the setting's (the model's tsdr_settled).
+  logic [12:0] tx_bit_q;
+  logic [20:0] tsdr_q;
+  logic [7:0]  min_tsdr_q;
+  logic        rate_moved_q;
+  // The last tick the transmitter drove the line, as this clock begins (the model's
+  // drove_until): a character that started by then is the transceiver's own echo.
+  logic [31:0] drove_q, drove;
 
   // ---- The synchroniser and the search ----
   logic level, fell_unused, rose_unused;
@@ -171,7 +209,7 @@ module transceiver #(
   logic        rx_char;
   logic [7:0]  rx_byte;
   logic [2:0]  rx_error;
-  logic [31:0] rx_start_unused, rx_end;
+  logic [31:0] rx_start, rx_end;
   logic [IW-1:0] rx_char_idle;
   logic        rx_active;
   logic [17:0] rx_deadline_unused, rx_next_from_unused;
@@ -217,7 +255,7 @@ module transceiver #(
     .hand_over_start_end_i(ho_reader[RdStartEnd +: 16]),
     .clear_i(1'b0),
     .char_o(rx_char), .char_byte_o(rx_byte), .char_error_o(rx_error),
-    .char_start_o(rx_start_unused), .char_end_o(rx_end), .char_idle_before_o(rx_char_idle),
+    .char_start_o(rx_start), .char_end_o(rx_end), .char_idle_before_o(rx_char_idle),
     .active_o(rx_active),
     .deadline_o(rx_deadline_unused), .stage_o(rx_stage_unused),
     .next_active_o(rx_next_active_unused), .next_from_valid_o(rx_next_from_valid_unused),
@@ -294,7 +332,7 @@ module transceiver #(
     .clk_i, .rst_ni,
     .config_i(dl_config), .tsyn_clocks_i(rate_tsyn(dl_config_rate)),
     .gap_clocks_i(rate_gap(dl_config_rate)), .reset_i(dl_reset),
-    .char_i(ch_valid), .char_byte_i(det_char ? det_byte_q : rx_byte),
+    .char_i(ch_kept), .char_byte_i(det_char ? det_byte_q : rx_byte),
     .char_error_i(det_char ? 3'd0 : rx_error),
     .char_idle_before_i(det_char ? {IW{1'b1}} : rx_char_idle),
     .char_end_i(det_char ? det_end_q : rx_end),
@@ -322,6 +360,11 @@ module transceiver #(
   // 1. The last clock's verdict, and the character of the last clock.
   assign det_char = det_q;
   assign ch_valid = det_q || rx_char;
+  // The receiver's character goes to the delimiter unless it started while the transmitter
+  // drove the line (the last end counts it all the same).
+  logic ch_kept;
+  assign drove   = de_o ? now_q - 32'd1 : drove_q;
+  assign ch_kept = det_q || (rx_char && (Transmitter == 0 || $signed(rx_start - drove) > 0));
   logic [1:0]  state_m;
   logic        fb_valid_m, restore_m;
   logic [31:0] last_end_m;
@@ -493,6 +536,47 @@ module transceiver #(
     verdict_confirms_d = dl_first != SC;
   end
 
+  // 6. The transmitter. A waiting response (or one taken on this clock) starts if the line was
+  // idle for min TSDR as the clock began (idle_o, idle_since_o: the registers) and its
+  // earliest tick has come, unless this clock gives the transmitter a new rate or none (a
+  // trial, a lock taken back, a search: the model's use_rate and search_again), which drops
+  // what waits and stops what goes out.
+  logic [7:0]  min_tsdr;
+  logic        tx_busy, tx_clear, tx_start, respond_ok, resp_waiting, resp_due;
+  logic [7:0]  resp_len;
+  logic [31:0] resp_not_before;
+  always_comb begin
+    min_tsdr        = min_tsdr_bits_i < MinTsdrBits ? MinTsdrBits : min_tsdr_bits_i;
+    respond_ok      = Transmitter != 0 && respond_i && state_q != Searching
+                      && respond_len_i != '0 && !pending_q && !tx_busy;
+    resp_waiting    = pending_q || respond_ok;
+    resp_len        = pending_q ? resp_len_q : respond_len_i;
+    resp_not_before = pending_q ? not_before_q : respond_not_before_i;
+    resp_due        = resp_waiting && !rate_moved_q && min_tsdr == min_tsdr_q && idle_o
+                      && $signed(now_q - resp_not_before) >= 0
+                      && idle_since(now_q, idle_since_o) >= IW'(tsdr_q);
+    tx_clear        = dl_config || dl_reset;
+    tx_start        = resp_due && !tx_clear;
+    pending_d       = resp_waiting && !resp_due && !tx_clear;
+    resp_len_d      = resp_len;
+    not_before_d    = resp_not_before;
+  end
+  if (Transmitter != 0) begin : g_tx
+    uart_tx #(.PhaseWidth(13)) u_tx (
+      .clk_i, .rst_ni, .inc_i(13'd1), .modulo_i(rate_bit(rate_q)), .clear_i(tx_clear),
+      .start_i(tx_start), .len_i(resp_len), .rd_addr_o(tx_rd_addr_o),
+      .rd_data_i(tx_rd_data_i), .tx_o, .de_o, .busy_o(tx_busy)
+    );
+  end else begin : g_no_tx
+    assign tx_rd_addr_o = '0;
+    assign tx_o         = 1'b1;
+    assign de_o         = 1'b0;
+    assign tx_busy      = 1'b0;
+    /* verilator lint_off UNUSEDSIGNAL */
+    wire unused_tx = &{1'b0, tx_rd_data_i, tx_start, resp_len};
+    /* verilator lint_on UNUSEDSIGNAL */
+  end
+
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
       now_q         <= '0;
@@ -516,6 +600,14 @@ module transceiver #(
       verdict_good_q     <= 1'b0;
       verdict_confirms_q <= 1'b0;
       held_q        <= '1;
+      pending_q     <= 1'b0;
+      resp_len_q    <= '0;
+      not_before_q  <= '0;
+      tx_bit_q      <= rate_bit(4'd0);
+      tsdr_q        <= 21'(rate_bit(4'd0)) * 21'(MinTsdrBits);
+      min_tsdr_q    <= MinTsdrBits;
+      rate_moved_q  <= 1'b0;
+      drove_q       <= '0;
     end else begin
       now_q         <= now_q + 32'd1;
       state_q       <= state_d;
@@ -538,6 +630,14 @@ module transceiver #(
       verdict_good_q     <= verdict_good_d;
       verdict_confirms_q <= verdict_confirms_d;
       held_q        <= held_d;
+      pending_q     <= pending_d;
+      resp_len_q    <= resp_len_d;
+      not_before_q  <= not_before_d;
+      tx_bit_q      <= rate_bit(rate_d);
+      tsdr_q        <= 21'(tx_bit_q) * 21'(min_tsdr);
+      min_tsdr_q    <= min_tsdr;
+      rate_moved_q  <= rate_d != rate_q;
+      drove_q       <= drove;
     end
   end
 
@@ -550,6 +650,7 @@ module transceiver #(
   assign rx_active_o      = rx_active && state_q != Searching;
   assign idle_o           = state_q != Searching && held_q[rate_q] && !rx_active_o && !rx_char;
   assign idle_since_o     = later(last_end_q, idle_since_q);
+  assign respond_ok_o     = respond_ok;
 endmodule
 
 `default_nettype wire

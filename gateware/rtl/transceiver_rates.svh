@@ -30,6 +30,22 @@
     endcase
   endfunction
 
+  function automatic logic [12:0] rate_bit(input logic [3:0] r);
+    case (r)
+      4'd0: rate_bit = 13'd5000; // 9.6k
+      4'd1: rate_bit = 13'd2500; // 19.2k
+      4'd2: rate_bit = 13'd1056; // 45.45k
+      4'd3: rate_bit = 13'd512; // 93.75k
+      4'd4: rate_bit = 13'd256; // 187.5k
+      4'd5: rate_bit = 13'd96; // 500k
+      4'd6: rate_bit = 13'd32; // 1.5M
+      4'd7: rate_bit = 13'd16; // 3M
+      4'd8: rate_bit = 13'd8; // 6M
+      4'd9: rate_bit = 13'd4; // 12M
+      default: rate_bit = '0;
+    endcase
+  endfunction
+
   function automatic logic [15:0] rate_stop_end(input logic [3:0] r);
     case (r)
       4'd0: rate_stop_end = 16'd55200; // 9.6k

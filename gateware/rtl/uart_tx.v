@@ -27,6 +27,9 @@ module uart_tx #(
   input  wire        rst_ni,
   input  wire [PhaseWidth-1:0] inc_i,
   input  wire [PhaseWidth-1:0] modulo_i,
+  // A new transmitter (the model's UartTx::new at a change of rate): what was under way
+  // stops (start_i, a send to the new one, comes after it).
+  input  wire        clear_i,
   input  wire        start_i,
   input  wire [7:0]  len_i,
   output wire [7:0]  rd_addr_o,
@@ -61,6 +64,9 @@ module uart_tx #(
       sending_d = len_i != 0;
       len_d     = len_i;
       byte_d    = rd_data_i;
+    end else if (clear_i) begin
+      // The rest is read only while sending, and a send sets it.
+      sending_d = 1'b0;
     end else if (sending_q) begin
       if (ph_next < {1'b0, modulo_i}) begin
         ph_d = ph_next[PhaseWidth-1:0];

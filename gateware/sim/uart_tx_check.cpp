@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
     out.clock(static_cast<uint8_t>(top->tx_o | (top->de_o << 1)));
   };
   top->start_i = 0;
+  top->clear_i = 0;
   top->len_i = 0;
   reset();
   for (int op; (op = in.op()) >= 0;) {

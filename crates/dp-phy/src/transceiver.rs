@@ -197,6 +197,13 @@ pub struct Transceiver {
     watchdog: Watchdog,
     watchdog_clocks: Tick,
     min_tsdr_bits: u8,
+    /// Min TSDR in clocks, and the transmitter's bit in clocks it is worked out from: two
+    /// registers, as the gateware has them (a multiply has a clock of its own, after the
+    /// rate's table). The bit follows the transmitter's rate a clock later and keeps the last
+    /// rate while there is none; min TSDR follows the bit and the setting a clock later. So
+    /// for two clocks after a change of rate a response waits the old rate's min TSDR.
+    tx_bit_clocks: Tick,
+    tsdr_clocks: Tick,
     /// A response waits for this tick (and for min TSDR of idle line).
     pending_not_before: Option<Tick>,
     response: Vec<u8>,
@@ -245,6 +252,10 @@ impl Transceiver {
             watchdog: Watchdog::STOPPED,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
             min_tsdr_bits: MIN_TSDR_BITS,
+            // As the gateware's reset: its rate register starts at the first rate.
+            tx_bit_clocks: BitTiming::whole_clocks(cfg.clock_hz, Baud::ALL[0]).clocks_per_bit(),
+            tsdr_clocks: BitTiming::whole_clocks(cfg.clock_hz, Baud::ALL[0]).clocks_per_bit()
+                * Tick::from(MIN_TSDR_BITS),
             pending_not_before: None,
             response: Vec::with_capacity(dp_consts::MAX_TELEGRAM_LEN),
             stats: Stats::default(),
@@ -385,15 +396,36 @@ impl Transceiver {
         self.now.saturating_sub(self.quiet_since())
     }
 
-    /// The tick at which a waiting response may start.
+    /// The tick at which a waiting response may start, as the transceiver stands (between
+    /// clocks: the line's idle time as the last clock left it).
     fn response_start(&self) -> Option<Tick> {
         let not_before = self.pending_not_before?;
-        let tsdr = self
+        self.tx.as_ref()?;
+        // Not yet the rate's or the setting's: a clock or two after a change.
+        if !self.tsdr_settled() {
+            return None;
+        }
+        Some(not_before.max(self.quiet_since() + self.tsdr_clocks))
+    }
+
+    /// Whether min TSDR's registers hold what the transmitter's rate and the setting give
+    /// (they change on a clock of their own otherwise: fast mode ticks it, and a response
+    /// waits for them).
+    fn tsdr_settled(&self) -> bool {
+        let bit = self
             .tx
-            .as_ref()?
-            .timing
-            .clocks_for(self.min_tsdr_bits as u64, 1);
-        Some(not_before.max(self.quiet_since() + tsdr))
+            .as_ref()
+            .map_or(self.tx_bit_clocks, |tx| tx.timing.clocks_per_bit());
+        self.tx_bit_clocks == bit && self.tsdr_clocks == bit * Tick::from(self.min_tsdr_bits)
+    }
+
+    /// The registers [`tsdr_clocks`](Self::tsdr_clocks) and the bit it is worked out from, at
+    /// the end of a clock: from their values as it began, and the transmitter's rate after it.
+    fn next_tsdr(&mut self) {
+        self.tsdr_clocks = self.tx_bit_clocks * Tick::from(self.min_tsdr_bits);
+        if let Some(tx) = &self.tx {
+            self.tx_bit_clocks = tx.timing.clocks_per_bit();
+        }
     }
 
     /// One clock with the line at `line`.
@@ -401,6 +433,10 @@ impl Transceiver {
     pub fn tick(&mut self, line: bool) -> TickOut {
         let mut out = TickOut::default();
         let now = self.now;
+        // A waiting response starts on this clock if the line was idle long enough as the clock
+        // began (the gateware decides on its registers; the idle line's change on this clock
+        // counts from the next), unless this clock changes the rate or searches again.
+        let start_response = self.response_start().is_some_and(|start| now >= start);
         // A telegram under way as the clock began: its last character's verdict, which
         // restarts the watchdog, comes on the next clock.
         let was_inside = self.delimiter.inside();
@@ -505,12 +541,9 @@ impl Transceiver {
             }
         }
 
-        if let Some(start) = self.response_start() {
-            if now >= start {
-                if let Some(tx) = &mut self.tx {
-                    tx.send(0, &self.response, &[]);
-                }
-                self.pending_not_before = None;
+        if start_response && self.pending_not_before.take().is_some() {
+            if let Some(tx) = &mut self.tx {
+                tx.send(0, &self.response, &[]);
             }
         }
         if let Some(tx) = &mut self.tx {
@@ -519,6 +552,7 @@ impl Transceiver {
         if self.drive().is_some() {
             self.drove_until = now;
         }
+        self.next_tsdr();
         self.now = now + 1;
         out
     }
@@ -710,6 +744,7 @@ impl Transceiver {
             || self.detected.is_some()
             || self.detection.is_some()
             || self.verdict.is_some()
+            || !self.tsdr_settled()
         {
             return 0;
         }

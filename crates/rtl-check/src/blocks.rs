@@ -40,7 +40,7 @@ fn clocks_to_sample(now: u64, period: u64, phase: u64) -> u64 {
 
 /// The transceiver's blocks in the order the signal meets them, and whether the gateware has
 /// them yet (README "Gateware").
-pub const TRANSCEIVER_BLOCKS: [(&str, bool); 10] = [
+pub const TRANSCEIVER_BLOCKS: [(&str, bool); 11] = [
     ("line_sync (synchroniser)", true),
     ("autobaud", true),
     ("edge_rx", true),
@@ -49,7 +49,8 @@ pub const TRANSCEIVER_BLOCKS: [(&str, bool); 10] = [
     ("uart_tx (min TSDR, driver enable)", true),
     ("watchdogs (baud, DP)", true),
     ("top: receive path (transceiver.v)", true),
-    ("top: transmitter, pins", false),
+    ("top: transmitter (min TSDR, echo)", true),
+    ("pins", false),
     ("responder", false),
 ];
 

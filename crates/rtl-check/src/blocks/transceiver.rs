@@ -1,11 +1,12 @@
-//! The transceiver's receive path (`gateware/rtl/transceiver.v`: the synchroniser, the search,
-//! the receiver, its idle lines, the delimiter, the baud watchdog and the trial, lock and
-//! fallback registers) against `dp_phy::Transceiver`, on the baud sweep's cases
-//! ([`dp_phy::sweep`]): the line each case puts on the bus, clock by clock, with the model run
-//! strict. Compared every clock: a delivery, the baud state, a telegram and a character under
-//! way; and each delivery (status, length, end tick, bytes), each change of the baud state
-//! (rate, fallback) and of the idle line at the rate heard (idle since when: what TSDR counts
-//! from) as events.
+//! The transceiver's top (`gateware/rtl/transceiver.v`: the synchroniser, the search, the
+//! receiver, its idle lines, the delimiter, the baud watchdog, the transmitter and the trial,
+//! lock and fallback registers) against `dp_phy::Transceiver`, on the baud sweep's cases
+//! ([`dp_phy::sweep`]) and scripted ones: the line each case puts on the bus, clock by clock,
+//! with the model run strict, and the responses handed to the transmitter (min TSDR, the bytes,
+//! the earliest tick). Compared every clock: a delivery, the baud state, a telegram and a
+//! character under way, the line driven (TX and DE); and each delivery (status, length, end
+//! tick, bytes), each change of the baud state (rate, fallback), of the idle line at the rate
+//! heard (idle since when: what TSDR counts from) and each response taken or refused as events.
 //!
 //! The rates' figures are the model's: [`rates_svh`] writes `gateware/rtl/transceiver_rates.svh`
 //! from the model's search, receiver and configuration, and a test holds the file equal to it.
@@ -16,11 +17,12 @@ use crate::{Block, Case, Event, Trace};
 use dp_consts::Baud;
 use dp_phy::autobaud::AutoBaud;
 use dp_phy::bus::{FaultInjector, FaultWindow, LineFault};
+use dp_phy::delimiter::Status;
 use dp_phy::sweep::{self, SweepCase};
 use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Observer, Testbench};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::transceiver::Stats;
-use dp_phy::{BaudState, BitTiming, Config, Transceiver};
+use dp_phy::{BaudState, BitTiming, Config, Tick, Transceiver};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::cell::RefCell;
@@ -42,8 +44,17 @@ pub fn transceiver() -> Block {
             "rate_idle.v",
             "delimiter.v",
             "watchdog.v",
+            "uart_tx.v",
         ],
-        signals: &["telegram", "trial", "locked", "in_telegram", "rx_active"],
+        signals: &[
+            "telegram",
+            "trial",
+            "locked",
+            "in_telegram",
+            "rx_active",
+            "tx",
+            "de",
+        ],
         params: vec![("PhaseWidth", i64::from(receiver_width()))],
         twin: "dp_phy::transceiver::Transceiver",
         events: true,
@@ -110,6 +121,12 @@ pub fn rates_svh() -> String {
             r.inc
         )
     });
+    function("rate_bit", "logic [12:0]", "", &|b| {
+        format!(
+            "13'd{}",
+            BitTiming::whole_clocks(cfg.clock_hz, b).clocks_per_bit()
+        )
+    });
     function("rate_stop_end", "logic [15:0]", "", &|b| {
         format!("16'd{}", search.channel_figures(b).stop_end)
     });
@@ -162,7 +179,9 @@ impl Recorder {
                 | u8::from(matches!(state, BaudState::Trial(_))) << 1
                 | u8::from(matches!(state, BaudState::Locked(_))) << 2
                 | u8::from(probe.in_telegram) << 3
-                | u8::from(probe.rx_active) << 4,
+                | u8::from(probe.rx_active) << 4
+                | u8::from(adapter.drive().unwrap_or(true)) << 5
+                | u8::from(adapter.drive().is_some()) << 6,
         );
         if telegram {
             let t = adapter.telegram();
@@ -203,6 +222,32 @@ impl Recorder {
             self.idle_since = idle_since;
         }
         self.clock += 1;
+    }
+
+    /// Min TSDR set to `bits` before the next clock (held).
+    fn min_tsdr(&mut self, bits: u8) {
+        self.flush();
+        self.stimulus.push(b'M');
+        self.stimulus.push(bits);
+    }
+
+    /// A response handed over before the next clock: respond_i with its length and earliest
+    /// tick; `taken` is what the model answered. Its bytes go into the buffer first when it
+    /// is taken (the buffer is the transmitter's while a response waits or goes out).
+    fn respond(&mut self, bytes: &[u8], not_before: u64, taken: bool) {
+        self.flush();
+        if taken {
+            for (i, &b) in bytes.iter().enumerate() {
+                self.stimulus.extend([b'B', i as u8, b]);
+            }
+        }
+        self.stimulus.push(b'P');
+        self.stimulus.push(bytes.len() as u8);
+        self.stimulus.extend((not_before as u32).to_le_bytes());
+        self.events.push(Event {
+            clock: self.clock,
+            payload: vec![4, u8::from(taken)],
+        });
     }
 
     fn flush(&mut self) {
@@ -381,6 +426,87 @@ fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats)
     (case, stats)
 }
 
+/// The transmitter: a master at `baud` polls, and the adapter answers each good telegram (1
+/// to 20 random bytes, its earliest tick up to three bits after the delivery), with min TSDR
+/// set at random (under 11 too) and set again halfway. Some answers are handed over twice, a
+/// clock apart (the second refused while the first waits or goes out) or empty (refused), one before any rate
+/// is found (refused), and the master's idle time before its next telegram is sometimes
+/// shorter than the answer: the adapter then hears its own echo and a collision. Returns the
+/// case and what it did.
+fn response_case(baud: Baud, seed: u64) -> (Case, Responses) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, rng_ppm(seed, baud));
+    let bit = timing.clocks_per_bit();
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let mut tb = observed_bench(&recorder, timing);
+    let set_tsdr = |tb: &mut Testbench, bits: u8| {
+        tb.adapter.set_min_tsdr(bits);
+        recorder.borrow_mut().min_tsdr(bits);
+    };
+    let mut did = Responses::default();
+    let mut respond = |tb: &mut Testbench, bytes: &[u8], not_before: Tick| {
+        let ok = tb.adapter.respond(bytes, not_before);
+        recorder.borrow_mut().respond(bytes, not_before, ok);
+        if ok {
+            did.taken += 1;
+        } else {
+            did.refused += 1;
+        }
+    };
+    set_tsdr(&mut tb, rng.gen_range(5..40));
+    respond(&mut tb, &[0xDC], 0);
+    let polls = poll_sequence(&mut rng, 8);
+    for t in &polls {
+        tb.send(rng.gen_range(33..160), t);
+    }
+    let mut seen = 0;
+    let tail = tb.now() + 1;
+    let mut last_activity = tail;
+    while !tb.master.done() || tb.adapter.responding() || tb.now() < last_activity + 200 * bit {
+        tb.step_strict();
+        if tb.master.tx.busy() || tb.adapter.drive().is_some() {
+            last_activity = tb.now();
+        }
+        if tb.delivered.len() == seen {
+            continue;
+        }
+        seen = tb.delivered.len();
+        if seen == polls.len() / 2 {
+            set_tsdr(&mut tb, rng.gen_range(11..60));
+        }
+        if tb.delivered[seen - 1].status != Status::Good {
+            continue;
+        }
+        let n = rng.gen_range(1..=20);
+        let bytes: Vec<u8> = (0..n).map(|_| rng.gen()).collect();
+        let not_before = tb.now() + rng.gen_range(0..3 * bit);
+        match rng.gen_range(0..8) {
+            0 => respond(&mut tb, &[], not_before),
+            1 => {
+                // The transceiver takes one a clock: the second on the next.
+                respond(&mut tb, &bytes, not_before);
+                tb.step_strict();
+                respond(&mut tb, &bytes[..1], not_before);
+            }
+            _ => respond(&mut tb, &bytes, not_before),
+        }
+    }
+    let collisions = tb.bus.collisions;
+    drop(tb);
+    did.collisions = collisions;
+    let case = finish(recorder, format!("transceiver-responses-{baud}-{seed}"));
+    (case, did)
+}
+
+/// What a [`response_case`] did: responses taken and refused, and clocks the master and the
+/// adapter drove the line together.
+#[derive(Debug, Default)]
+struct Responses {
+    taken: u64,
+    refused: u64,
+    collisions: u64,
+}
+
 /// A master's clock off by up to 3,000 ppm, fixed by the seed and the rate.
 fn rng_ppm(seed: u64, b: Baud) -> i32 {
     ChaCha8Rng::seed_from_u64(seed ^ (b.index() as u64) << 32).gen_range(-3000..=3000)
@@ -405,7 +531,21 @@ pub fn transceiver_cases(quick: bool) -> Vec<Case> {
     let mut cases: Vec<Case> = chosen.into_iter().map(sweep_case).collect();
     cases.extend(trials_cases(quick).into_iter().map(|(c, _)| c));
     cases.extend(late_decision_cases(quick).into_iter().map(|(c, _)| c));
+    cases.extend(response_cases(quick).into_iter().map(|(c, _)| c));
     cases
+}
+
+/// [`response_case`]s: at three rates (`quick`), or at every rate.
+fn response_cases(quick: bool) -> Vec<(Case, Responses)> {
+    let rates: &[Baud] = if quick {
+        &[Baud::B187500, Baud::B1500000, Baud::B12000000]
+    } else {
+        &Baud::ALL
+    };
+    rates
+        .iter()
+        .map(|&b| response_case(b, 300 + b.index() as u64))
+        .collect()
 }
 
 /// [`late_decision_case`]s: at 93.75k and 500k (`quick`), or at the six slowest rates, with
@@ -451,6 +591,20 @@ fn trials_cases(quick: bool) -> Vec<(Case, Stats)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The quick set's responses are taken and refused, and the master talks over some (the
+    /// adapter hears its own echo).
+    #[test]
+    fn the_quick_responses_take_their_paths() {
+        let cases = response_cases(true);
+        for (case, did) in &cases {
+            assert!(did.taken >= 3 && did.refused >= 1, "{}: {did:?}", case.name);
+        }
+        assert!(
+            cases.iter().any(|(_, did)| did.collisions > 0),
+            "no collision"
+        );
+    }
 
     /// The quick set takes the paths the sweep seldom does: trials from a lock that fail and
     /// take it back (by a bad FCS and by a gap), trials from searching that fail, and the

@@ -200,8 +200,9 @@ pub struct Transceiver {
     /// Min TSDR in clocks, and the transmitter's bit in clocks it is worked out from: two
     /// registers, as the gateware has them (a multiply has a clock of its own, after the
     /// rate's table). The bit follows the transmitter's rate a clock later and keeps the last
-    /// rate while there is none; min TSDR follows the bit and the setting a clock later. So
-    /// for two clocks after a change of rate a response waits the old rate's min TSDR.
+    /// rate while there is none; min TSDR follows the bit and the setting a clock later. A
+    /// response waits while they do not yet hold the rate's and the setting's figures (the
+    /// clock after a change of either: [`tsdr_settled`](Self::tsdr_settled)).
     tx_bit_clocks: Tick,
     tsdr_clocks: Tick,
     /// A response waits for this tick (and for min TSDR of idle line).

@@ -1,5 +1,6 @@
-// transceiver (the receive path) under the stimulus of crates/rtl-check
-// (`rtl_check::blocks::transceiver`): the line of a baud-sweep case, clock by clock.
+// transceiver (the top) under the stimulus of crates/rtl-check
+// (`rtl_check::blocks::transceiver`): the line of a case, clock by clock, and the responses
+// handed to its transmitter.
 //
 // Records: 'L' u8 level, u32 n (n clocks with the line at level, before the synchroniser);
 // 'M' u8 bits (min TSDR, held); 'B' u8 addr, u8 data (a byte into the response buffer, between

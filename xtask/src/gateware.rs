@@ -142,17 +142,15 @@ pub fn run(args: &[String]) -> Result<()> {
     let top = blocks::transceiver();
     let (top_used, _, top_fmax) = place_measured(&tools, &top, &root)?;
     let under = " (under the clock: issue 27, README \"Gateware\" has what limits it)";
-    match top_fmax {
-        Some(f) => println!(
-            "  the transceiver's top on the part (gateware/rtl/transceiver.v): {top_used}/{total} logic cells ({}%), Fmax {f:.1} MHz{}",
-            top_used * 100 / total.max(1),
-            if f < clock_mhz { under } else { "" }
-        ),
-        None => println!(
-            "  the transceiver's top on the part (gateware/rtl/transceiver.v): {top_used}/{total} logic cells ({}%): does not fit (issue 27, README \"Gateware\")",
-            top_used * 100 / total.max(1)
-        ),
-    }
+    let top_verdict = match top_fmax {
+        Some(f) if f < clock_mhz => format!(", Fmax {f:.1} MHz{under}"),
+        Some(f) => format!(", Fmax {f:.1} MHz"),
+        None => ": does not fit (issue 27, README \"Gateware\")".to_string(),
+    };
+    println!(
+        "  the transceiver's top on the part (gateware/rtl/transceiver.v): {top_used}/{total} logic cells ({}%){top_verdict}",
+        top_used * 100 / total.max(1)
+    );
     let mut rx_top = blocks::transceiver();
     rx_top.params.insert(0, ("Transmitter", 0));
     synthesise(&tools, &rx_top, &root)?;

@@ -227,6 +227,8 @@ const SYNC_FILTER_LEN: u16 = 0;
 
 impl Transceiver {
     pub fn new(cfg: Config) -> Self {
+        // As the gateware's reset: its rate register starts at the first rate.
+        let first_bit = BitTiming::whole_clocks(cfg.clock_hz, Baud::ALL[0]).clocks_per_bit();
         Transceiver {
             cfg,
             now: 0,
@@ -253,10 +255,8 @@ impl Transceiver {
             watchdog: Watchdog::STOPPED,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
             min_tsdr_bits: MIN_TSDR_BITS,
-            // As the gateware's reset: its rate register starts at the first rate.
-            tx_bit_clocks: BitTiming::whole_clocks(cfg.clock_hz, Baud::ALL[0]).clocks_per_bit(),
-            tsdr_clocks: BitTiming::whole_clocks(cfg.clock_hz, Baud::ALL[0]).clocks_per_bit()
-                * Tick::from(MIN_TSDR_BITS),
+            tx_bit_clocks: first_bit,
+            tsdr_clocks: first_bit * Tick::from(MIN_TSDR_BITS),
             pending_not_before: None,
             response: Vec::with_capacity(dp_consts::MAX_TELEGRAM_LEN),
             stats: Stats::default(),

@@ -399,8 +399,8 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
 /// sends a 1 first) with a high glitch in the delimiter's start bit, `at` hundredths of a bit
 /// into it and `len` long. The fall after the glitch is a second candidate start, and the
 /// decision waits for its stop bit. The receiver's idle line then counts from the decision
-/// (`Detection::rose_after_end`), and the polls after it are answered from there. Returns the
-/// case and the model's counters at its end.
+/// (`Detection::rose_after_end`), and the gap and TSYN of the polls after it count from
+/// there. Returns the case and the model's counters at its end.
 fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 5000);
@@ -429,10 +429,10 @@ fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats)
 /// The transmitter: a master at `baud` polls, and the adapter answers each good telegram (1
 /// to 20 random bytes, its earliest tick up to three bits after the delivery), with min TSDR
 /// set at random (under 11 too) and set again halfway. Some answers are handed over twice, a
-/// clock apart (the second refused while the first waits or goes out) or empty (refused), one before any rate
-/// is found (refused), and the master's idle time before its next telegram is sometimes
-/// shorter than the answer: the adapter then hears its own echo and a collision. Returns the
-/// case and what it did.
+/// clock apart (the second refused while the first waits or goes out), or empty (refused),
+/// one before any rate is found (refused), and the master's idle time before its next
+/// telegram is sometimes shorter than the answer: the adapter then hears its own echo and a
+/// collision. Returns the case and what it did.
 fn response_case(baud: Baud, seed: u64) -> (Case, Responses) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, rng_ppm(seed, baud));
@@ -460,8 +460,7 @@ fn response_case(baud: Baud, seed: u64) -> (Case, Responses) {
         tb.send(rng.gen_range(33..160), t);
     }
     let mut seen = 0;
-    let tail = tb.now() + 1;
-    let mut last_activity = tail;
+    let mut last_activity = tb.now();
     while !tb.master.done() || tb.adapter.responding() || tb.now() < last_activity + 200 * bit {
         tb.step_strict();
         if tb.master.tx.busy() || tb.adapter.drive().is_some() {
@@ -606,9 +605,6 @@ mod tests {
         );
     }
 
-    /// The quick set takes the paths the sweep seldom does: trials from a lock that fail and
-    /// take it back (by a bad FCS and by a gap), trials from searching that fail, and the
-    /// baud watchdog's expiry.
     /// The late decisions' cases, quick and full, are decided after the next character's
     /// rise (their idle line counts from the decision), and the polls after them are taken.
     #[test]
@@ -622,6 +618,9 @@ mod tests {
         }
     }
 
+    /// The quick set takes the paths the sweep seldom does: trials from a lock that fail and
+    /// take it back (by a bad FCS and by a gap), trials from searching that fail, and the
+    /// baud watchdog's expiry.
     #[test]
     fn the_quick_trials_take_the_rare_paths() {
         for (case, stats) in trials_cases(true) {

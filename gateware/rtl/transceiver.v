@@ -40,7 +40,9 @@
 // sample period and stop bit's end) come from transceiver_rates.svh, written from the model.
 //
 // What changed for hardware: ticks are 32 bits (the model's u64 truncated; every tick compared
-// is within 2^31 clocks of now), idle times 24 bits, saturating; a detection's start is its age
+// is within 2^31 clocks of now: the baud watchdog bounds how old the idle line's are while
+// they are read; the transmitter's last drive, which nothing bounds, is kept as its age
+// instead), idle times 24 bits, saturating; a detection's start is its age
 // in the detecting channel's samples times that rate's period. In the model too, so that the
 // stages need not wait on each other in one clock: a telegram's verdict acts on the next
 // clock, and the idle check and the watchdog look at the receiver and the delimiter as the
@@ -58,7 +60,10 @@ module transceiver #(
   // it to follow the receive path's clock rate while the whole top does not fit the part).
   parameter int Transmitter = 1,
   parameter int PhaseWidth = 7,
-  parameter int PendWidth  = 12
+  parameter int PendWidth  = 12,
+  // The tick the top comes out of reset at (the model's Transceiver::reset_at): 0 on the
+  // board; rtl-check starts a build just before 2^32, so that its ticks wrap mid-case.
+  parameter logic [31:0] NowReset = 32'd0
 ) (
   input  wire        clk_i,
   input  wire        rst_ni,
@@ -106,6 +111,9 @@ module transceiver #(
   localparam logic [7:0] SC = 8'hE5;
   localparam logic [3:0] StGood = 4'd0;
   localparam logic [7:0] MinTsdrBits = 8'd11;
+  // A character's age when it is delivered is under 2^17 clocks (11.5 bits at 9.6k, 57,500):
+  // an age this wide compares it with the transmitter's last drive, which saturates.
+  localparam int AgeWidth = 18;
 
 `include "transceiver_rates.svh"
 
@@ -165,9 +173,13 @@ module transceiver #(
   logic [20:0] tsdr_q;
   logic [7:0]  min_tsdr_q;
   logic        rate_moved_q;
-  // The last tick the transmitter drove the line, as this clock begins (the model's
-  // drove_until): a character that started by then is the transceiver's own echo.
-  logic [31:0] drove_q, drove;
+  // The clocks since the transmitter last drove the line, as this clock begins (the model's
+  // drove_until seen from now, saturating; '1 also for never): a character that started by
+  // then is the transceiver's own echo. An age, not a tick: a tick 2^31 clocks old (45 s
+  // without an answer) would compare as one in the future, and every character since would
+  // be taken for an echo.
+  logic [AgeWidth-1:0] drove_age_q, drove_age, drove_age_d;
+  logic [AgeWidth-1:0] start_age;
 
   // ---- The synchroniser and the search ----
   logic level, fell_unused, rose_unused;
@@ -363,8 +375,10 @@ module transceiver #(
   // The receiver's character goes to the delimiter unless it started while the transmitter
   // drove the line (the last end counts it all the same).
   logic ch_kept;
-  assign drove   = de_o ? now_q - 32'd1 : drove_q;
-  assign ch_kept = det_q || (rx_char && (Transmitter == 0 || $signed(rx_start - drove) > 0));
+  assign drove_age   = de_o ? AgeWidth'(1) : drove_age_q;
+  assign drove_age_d = drove_age + AgeWidth'(drove_age != '1);
+  assign start_age   = AgeWidth'(now_q - rx_start);
+  assign ch_kept     = det_q || (rx_char && (Transmitter == 0 || start_age < drove_age));
   logic [1:0]  state_m;
   logic        fb_valid_m, restore_m;
   logic [31:0] last_end_m;
@@ -579,13 +593,13 @@ module transceiver #(
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
-      now_q         <= '0;
+      now_q         <= NowReset;
       state_q       <= Searching;
       rate_q        <= '0;
       fb_valid_q    <= 1'b0;
       fb_rate_q     <= '0;
       since_trial_q <= '1;
-      last_end_q    <= '0;
+      last_end_q    <= NowReset;
       det_q         <= 1'b0;
       det_byte_q    <= '0;
       det_end_q     <= '0;
@@ -607,7 +621,7 @@ module transceiver #(
       tsdr_q        <= 21'(rate_bit(4'd0)) * 21'(MinTsdrBits);
       min_tsdr_q    <= MinTsdrBits;
       rate_moved_q  <= 1'b0;
-      drove_q       <= '0;
+      drove_age_q   <= '1;
     end else begin
       now_q         <= now_q + 32'd1;
       state_q       <= state_d;
@@ -637,7 +651,7 @@ module transceiver #(
       tsdr_q        <= 21'(tx_bit_q) * 21'(min_tsdr);
       min_tsdr_q    <= min_tsdr;
       rate_moved_q  <= rate_d != rate_q;
-      drove_q       <= drove;
+      drove_age_q   <= drove_age_d;
     end
   end
 

@@ -67,6 +67,10 @@ pub fn run(args: &[String]) -> Result<()> {
         (blocks::delimiter(), blocks::delimiter_cases(quick)),
         (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
         (blocks::transceiver(), blocks::transceiver_cases(quick)),
+        (
+            blocks::transceiver_near_wrap(),
+            blocks::near_wrap_cases(quick),
+        ),
     ];
     for width in [blocks::baud_watchdog_width(), blocks::dp_watchdog_width()] {
         runs.push((

@@ -190,9 +190,10 @@ pub struct Transceiver {
     /// 48 MHz clock together). It belongs to the receiver whose telegram it judges: a new
     /// trial or a search drops it.
     verdict: Option<Verdict>,
-    /// The last tick the transmitter drove the line: a character that started by then is the
-    /// transceiver's own echo.
-    drove_until: Tick,
+    /// The last tick the transmitter drove the line (none since reset): a character that
+    /// started by then is the transceiver's own echo. The gateware keeps it as its age,
+    /// saturating, so that it never wraps (README "Gateware").
+    drove_until: Option<Tick>,
     /// The baud-control watchdog, and its clocks.
     watchdog: Watchdog,
     watchdog_clocks: Tick,
@@ -251,7 +252,7 @@ impl Transceiver {
             detected: None,
             detection: None,
             verdict: None,
-            drove_until: 0,
+            drove_until: None,
             watchdog: Watchdog::STOPPED,
             watchdog_clocks: cfg.baud_watchdog_10ms as Tick * (cfg.clock_hz as Tick / 100),
             min_tsdr_bits: MIN_TSDR_BITS,
@@ -458,7 +459,7 @@ impl Transceiver {
                 "a stale character at {now}"
             );
             self.last_end = c.end;
-            if c.start > self.drove_until {
+            if self.drove_until.is_none_or(|d| c.start > d) {
                 self.on_char(&c, idle_before, &mut out);
             }
         }
@@ -551,7 +552,7 @@ impl Transceiver {
             tx.tick();
         }
         if self.drive().is_some() {
-            self.drove_until = now;
+            self.drove_until = Some(now);
         }
         self.next_tsdr();
         self.now = now + 1;
@@ -788,7 +789,7 @@ impl Transceiver {
             tx.skip(ticks);
         }
         if self.drive().is_some() {
-            self.drove_until = self.now - 1;
+            self.drove_until = Some(self.now - 1);
         }
         self.search
             .retire(self.now, line, self.heard(), &mut self.search_q);

@@ -61,6 +61,25 @@ pub fn transceiver() -> Block {
     }
 }
 
+/// The search's schedule repeats every 2,640 clocks (every channel's sample period and the
+/// shared datapath's six turns divide it): a run that starts on a multiple of it samples the
+/// line as one from tick 0 does.
+const SCHEDULE_CLOCKS: u64 = 2640;
+
+/// The tick [`transceiver_near_wrap`] comes out of reset at: 5,280,000 clocks (110 ms) or so before
+/// its 32-bit ticks wrap, time for two telegrams and their answers at 9.6k, on the search's
+/// schedule.
+pub const NEAR_WRAP: u64 = ((1 << 32) / SCHEDULE_CLOCKS - 2000) * SCHEDULE_CLOCKS;
+
+/// The top out of reset at [`NEAR_WRAP`] (`NowReset`; the model's `Transceiver::reset_at`):
+/// its ticks, 32 bits where the model's are 64, wrap in the middle of its cases, which come
+/// after 2^31 clocks too, where a tick kept since reset reads as one in the future.
+pub fn transceiver_near_wrap() -> Block {
+    let mut block = transceiver();
+    block.params.push(("NowReset", NEAR_WRAP as i64));
+    block
+}
+
 const SVH_HEADER: &str =
     "// Written by crates/rtl-check (`blocks::transceiver`) from the model at 48 MHz: each\n\
     // rate's receiver (EdgeRx::sampled, its figures in samples), its search channel's sample\n\
@@ -433,12 +452,20 @@ fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats)
 /// one before any rate is found (refused), and the master's idle time before its next
 /// telegram is sometimes shorter than the answer: the adapter then hears its own echo and a
 /// collision. Returns the case and what it did.
-fn response_case(baud: Baud, seed: u64) -> (Case, Responses) {
+///
+/// `reset_at`: the tick the adapter comes out of reset at (`Transceiver::reset_at`), the line
+/// idle until `traffic_from`, both on the search's schedule (0, 0: from power-up).
+fn response_case(baud: Baud, seed: u64, reset_at: Tick, traffic_from: Tick) -> (Case, Responses) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, rng_ppm(seed, baud));
     let bit = timing.clocks_per_bit();
     let recorder = Rc::new(RefCell::new(Recorder::new()));
     let mut tb = observed_bench(&recorder, timing);
+    assert!(
+        reset_at.is_multiple_of(SCHEDULE_CLOCKS) && traffic_from.is_multiple_of(SCHEDULE_CLOCKS)
+    );
+    tb.adapter = Transceiver::reset_at(Config::default(), reset_at);
+    tb.run_until(traffic_from, false);
     let set_tsdr = |tb: &mut Testbench, bits: u8| {
         tb.adapter.set_min_tsdr(bits);
         recorder.borrow_mut().min_tsdr(bits);
@@ -490,11 +517,20 @@ fn response_case(baud: Baud, seed: u64) -> (Case, Responses) {
             _ => respond(&mut tb, &bytes, not_before),
         }
     }
-    let collisions = tb.bus.collisions;
+    did.collisions = tb.bus.collisions;
+    did.good_ends = tb
+        .delivered
+        .iter()
+        .filter(|d| d.status == Status::Good)
+        .map(|d| d.end)
+        .collect();
     drop(tb);
-    did.collisions = collisions;
-    let case = finish(recorder, format!("transceiver-responses-{baud}-{seed}"));
-    (case, did)
+    let name = if reset_at == 0 {
+        format!("transceiver-responses-{baud}-{seed}")
+    } else {
+        format!("transceiver-responses-{baud}-{seed}-from-{reset_at}")
+    };
+    (finish(recorder, name), did)
 }
 
 /// What a [`response_case`] did: responses taken and refused, and clocks the master and the
@@ -504,6 +540,8 @@ struct Responses {
     taken: u64,
     refused: u64,
     collisions: u64,
+    /// The end ticks of the good telegrams delivered.
+    good_ends: Vec<Tick>,
 }
 
 /// A master's clock off by up to 3,000 ppm, fixed by the seed and the rate.
@@ -543,7 +581,40 @@ fn response_cases(quick: bool) -> Vec<(Case, Responses)> {
     };
     rates
         .iter()
-        .map(|&b| response_case(b, 300 + b.index() as u64))
+        .map(|&b| response_case(b, 300 + b.index() as u64, 0, 0))
+        .collect()
+}
+
+/// The cases of [`transceiver_near_wrap`]: [`response_case`]s from [`NEAR_WRAP`], at 1.5M and
+/// 12M (`quick`) or at every rate.
+pub fn near_wrap_cases(quick: bool) -> Vec<Case> {
+    near_wrap_responses(quick)
+        .into_iter()
+        .map(|(c, _)| c)
+        .collect()
+}
+
+fn near_wrap_responses(quick: bool) -> Vec<(Case, Responses)> {
+    let rates: &[Baud] = if quick {
+        &[Baud::B1500000, Baud::B12000000]
+    } else {
+        &Baud::ALL
+    };
+    rates
+        .iter()
+        .map(|&b| {
+            // The same traffic from power-up says where its first two good telegrams end: the
+            // wrap goes between them.
+            let seed = 400 + b.index() as u64;
+            let (_, dry) = response_case(b, seed, 0, 0);
+            let between = (dry.good_ends[0] + dry.good_ends[1]) / 2;
+            let from = ((1 << 32) - between) / SCHEDULE_CLOCKS * SCHEDULE_CLOCKS;
+            assert!(
+                from >= NEAR_WRAP,
+                "{b}: traffic from {from}, before the reset"
+            );
+            response_case(b, seed, NEAR_WRAP, from)
+        })
         .collect()
 }
 
@@ -603,6 +674,24 @@ mod tests {
             cases.iter().any(|(_, did)| did.collisions > 0),
             "no collision"
         );
+    }
+
+    /// The cases near the wrap (the full set, which holds the quick one) answer telegrams on
+    /// both sides of it: before it, 2^31 clocks and more after the tick the top is reset to.
+    #[test]
+    fn the_near_wrap_cases_answer_on_both_sides_of_it() {
+        let mut failed = Vec::new();
+        for (case, did) in near_wrap_responses(false) {
+            let before = did.good_ends.iter().filter(|&&t| t < 1 << 32).count();
+            let after = did.good_ends.len() - before;
+            if !(before >= 1 && after >= 1 && did.taken >= 2) {
+                failed.push(format!(
+                    "{}: {before} good before the wrap, {after} after, {did:?}",
+                    case.name
+                ));
+            }
+        }
+        assert!(failed.is_empty(), "{failed:#?}");
     }
 
     /// The late decisions' cases, quick and full, are decided after the next character's

@@ -166,13 +166,18 @@ module transceiver #(
   logic [7:0]  resp_len_q, resp_len_d;
   logic [31:0] not_before_q, not_before_d;
   // Min TSDR in clocks and the transmitter's bit it is worked out from (the model's
-  // tsdr_clocks, tx_bit_clocks): the multiply has a clock of its own. The setting it was
-  // worked out from, and whether the rate moved on the last clock: until both hold, the
-  // registers are not yet the rate's and the setting's (the model's tsdr_settled).
+  // tsdr_clocks, tx_bit_clocks): the product with the setting is shifted and added a bit of
+  // the setting a clock, most significant first (tsdr_step_q: the bits still to add, 8 after
+  // a change), where a one-clock multiply took about 200 LUT4. The setting as the last clock
+  // began, and whether the rate moved on it: a change of either starts the multiply again,
+  // and until it is done the registers are not yet the rate's and the setting's (the model's
+  // tsdr_settled).
   logic [12:0] tx_bit_q;
-  logic [20:0] tsdr_q;
+  logic [20:0] tsdr_q, tsdr_d;
+  logic [3:0]  tsdr_step_q, tsdr_step_d;
   logic [7:0]  min_tsdr_q;
   logic        rate_moved_q;
+  logic        tsdr_restart;
   // The clocks since the transmitter last drove the line, as this clock begins (the model's
   // drove_until seen from now, saturating; '1 also for never): a character that started by
   // then is the transceiver's own echo. An age, not a tick: a tick 2^31 clocks old (45 s
@@ -217,7 +222,7 @@ module transceiver #(
   // ---- Blocks driven below ----
   // The receiver.
   logic        rx_hand_over;
-  logic [IW-1:0] rx_hand_over_idle, idle_before, idle_before_restore;
+  logic [IW-1:0] rx_hand_over_idle, idle_before;
   logic        rx_char;
   logic [7:0]  rx_byte;
   logic [2:0]  rx_error;
@@ -417,16 +422,17 @@ module transceiver #(
   end
 
   // 2. The idle clocks before a fall at the rate heard (a receiver reset before this clock has
-  // nothing under way): for the step at the rate as the clock began, and for a lock taken back
-  // (its receiver handed over), worked out apart and chosen by the verdict last.
-  logic rx_was_active;
+  // nothing under way): for the step at the rate as the clock began, or for a lock taken back
+  // (its receiver handed over: the step's idle time then goes nowhere), its idle line chosen
+  // first (the verdict is a gate from registers), so that one chain works it out.
+  logic rx_was_active, idle_held;
+  logic [31:0] idle_high;
   always_comb begin
     // A character under way as the clock began (a lock taken back starts afresh).
     rx_was_active = rx_active && !restore_m;
-    idle_before   = (held_q[rate_q] && !rx_active)
-                  ? idle_since(now_q, later(last_end_m, idle_since_q)) : '0;
-    idle_before_restore = held_q[fb_rate_q]
-                        ? idle_since(now_q, later(last_end_m, fb_since_q)) : '0;
+    idle_held     = restore_m ? held_q[fb_rate_q] : held_q[rate_q] && !rx_active;
+    idle_high     = restore_m ? fb_since_q : idle_since_q;
+    idle_before   = idle_held ? idle_since(now_q, later(last_end_m, idle_high)) : '0;
     fb_live       = state_q == Trial && fb_valid_q;
   end
 
@@ -466,7 +472,7 @@ module transceiver #(
     cfg3_rate     = rate_m;
     rst3          = rst1;
     rx_hand_over      = !rx_on_m || restore_m;
-    rx_hand_over_idle = restore_m ? idle_before_restore : '0;
+    rx_hand_over_idle = restore_m ? idle_before : '0;
     // A fall at the hand-over's rate (as its figures: the same rate whenever a detection is
     // not acted on).
     rx_hand_over_fell = dp_valid_q ? changed[dp_rate_q] && !held_d[dp_rate_q]
@@ -509,18 +515,16 @@ module transceiver #(
   // high tick, saturating at 24 bits) exceeds the gap when now less the gap passes both ticks:
   // one subtraction a tick, against a bound worked out from registers (the gap is under 2^24
   // clocks, each tick within 2^31 of now).
-  // A character delivered on this clock ended less than a gap ago (the model checks it in
-  // debug builds): with one, the line is not idle over the gap, and the bound is compared with
-  // the last end kept. Each idle copy's high tick is compared, and the verdict chooses.
+  // A clock that delivers a character finds no gap (the model's rule too), so the bound is
+  // compared with the last end kept. The high tick compared is the idle copy's the verdict
+  // leaves (a lock taken back: the fallback's).
   logic [31:0] gap_bound;
-  logic        gap_rx, gap_fb;
   always_comb begin
     dl_idle_check = rx_on_m && !switched && !rx_was_active;
     gap_bound     = now_q - 32'(dl_gap) - 32'd1;
-    gap_rx        = held_d[rate_q] && $signed(gap_bound - idle_since_e) >= 0;
-    gap_fb        = held_d[fb_rate_q] && $signed(gap_bound - fb_since_e) >= 0;
     idle_over_gap = !ch_valid && $signed(gap_bound - last_end_q) >= 0
-                    && (restore_m ? gap_fb : gap_rx);
+                    && (restore_m ? held_d[fb_rate_q] : held_d[rate_q])
+                    && $signed(gap_bound - (restore_m ? fb_since_e : idle_since_e)) >= 0;
   end
 
   // 5. The idle line's load (a detection's, stage 3, before a lock taken back, stage 1); the
@@ -566,7 +570,7 @@ module transceiver #(
     resp_waiting    = pending_q || respond_ok;
     resp_len        = pending_q ? resp_len_q : respond_len_i;
     resp_not_before = pending_q ? not_before_q : respond_not_before_i;
-    resp_due        = resp_waiting && !rate_moved_q && min_tsdr == min_tsdr_q && idle_o
+    resp_due        = resp_waiting && !tsdr_restart && tsdr_step_q == '0 && idle_o
                       && $signed(now_q - resp_not_before) >= 0
                       && idle_since(now_q, idle_since_o) >= IW'(tsdr_q);
     tx_clear        = dl_config || dl_reset;
@@ -574,6 +578,18 @@ module transceiver #(
     pending_d       = resp_waiting && !resp_due && !tx_clear;
     resp_len_d      = resp_len;
     not_before_d    = resp_not_before;
+  end
+  always_comb begin
+    tsdr_restart = rate_moved_q || min_tsdr != min_tsdr_q;
+    tsdr_d       = tsdr_q;
+    tsdr_step_d  = tsdr_step_q;
+    if (tsdr_restart) begin
+      tsdr_d      = '0;
+      tsdr_step_d = 4'd8;
+    end else if (tsdr_step_q != '0) begin
+      tsdr_d      = {tsdr_q[19:0], 1'b0} + (min_tsdr[3'(tsdr_step_q - 4'd1)] ? 21'(tx_bit_q) : '0);
+      tsdr_step_d = tsdr_step_q - 4'd1;
+    end
   end
   if (Transmitter != 0) begin : g_tx
     uart_tx #(.PhaseWidth(13)) u_tx (
@@ -619,6 +635,7 @@ module transceiver #(
       not_before_q  <= '0;
       tx_bit_q      <= rate_bit(4'd0);
       tsdr_q        <= 21'(rate_bit(4'd0)) * 21'(MinTsdrBits);
+      tsdr_step_q   <= '0;
       min_tsdr_q    <= MinTsdrBits;
       rate_moved_q  <= 1'b0;
       drove_age_q   <= '1;
@@ -648,7 +665,8 @@ module transceiver #(
       resp_len_q    <= resp_len_d;
       not_before_q  <= not_before_d;
       tx_bit_q      <= rate_bit(rate_d);
-      tsdr_q        <= 21'(tx_bit_q) * 21'(min_tsdr);
+      tsdr_q        <= tsdr_d;
+      tsdr_step_q   <= tsdr_step_d;
       min_tsdr_q    <= min_tsdr;
       rate_moved_q  <= rate_d != rate_q;
       drove_age_q   <= drove_age_d;

@@ -118,6 +118,12 @@ pub struct Stats {
     /// Detections decided after their channel's line rose past the character's end
     /// (`Detection::rose_after_end`): the receiver's idle line counted from the decision.
     pub detections_after_rise: u64,
+    /// Detections whose character reached the delimiter more than a gap after its end (at 6M
+    /// and 12M, where the gap is a bit, after glitches): that clock finds no gap.
+    pub detections_past_gap: u64,
+    /// Locks taken back on a clock on which the line fell at their rate: the receiver starts
+    /// afresh with that fall, its idle time from the lock's idle line.
+    pub relock_falls: u64,
 }
 
 /// Internal signals worth a waveform.
@@ -198,14 +204,19 @@ pub struct Transceiver {
     watchdog: Watchdog,
     watchdog_clocks: Tick,
     min_tsdr_bits: u8,
-    /// Min TSDR in clocks, and the transmitter's bit in clocks it is worked out from: two
-    /// registers, as the gateware has them (a multiply has a clock of its own, after the
-    /// rate's table). The bit follows the transmitter's rate a clock later and keeps the last
-    /// rate while there is none; min TSDR follows the bit and the setting a clock later. A
-    /// response waits while they do not yet hold the rate's and the setting's figures (the
-    /// clock after a change of either: [`tsdr_settled`](Self::tsdr_settled)).
+    /// Min TSDR in clocks, and the transmitter's bit in clocks it is worked out from, as the
+    /// gateware has them: the bit follows the transmitter's rate a clock later and keeps the
+    /// last rate while there is none; min TSDR is their product with the setting, worked out
+    /// a bit of the setting a clock (shift and add, most significant first: the gateware's
+    /// multiply, [`TSDR_STEPS`] clocks after a change of either, where a one-clock multiply
+    /// took about 200 LUT4). `tsdr_operands`: the bit and the setting as the last clock began
+    /// (a change starts the multiply again); `tsdr_steps`: the setting's bits still to add.
+    /// A response waits while they do not yet hold the rate's and the setting's figures
+    /// ([`tsdr_settled`](Self::tsdr_settled)).
     tx_bit_clocks: Tick,
     tsdr_clocks: Tick,
+    tsdr_operands: (Tick, u8),
+    tsdr_steps: u32,
     /// A response waits for this tick (and for min TSDR of idle line).
     pending_not_before: Option<Tick>,
     response: Vec<u8>,
@@ -225,6 +236,10 @@ enum Verdict {
 /// bit, where it falls. A filter would move an edge that a glitch follows within its length: by
 /// half a bit at 12 Mbit/s (4 clocks at 48 MHz) even for a filter of one clock.
 const SYNC_FILTER_LEN: u16 = 0;
+
+/// The clocks min TSDR's multiply takes after a change of rate or setting: a bit of the
+/// setting (8 bits) a clock.
+const TSDR_STEPS: u32 = u8::BITS;
 
 impl Transceiver {
     pub fn new(cfg: Config) -> Self {
@@ -258,6 +273,8 @@ impl Transceiver {
             min_tsdr_bits: MIN_TSDR_BITS,
             tx_bit_clocks: first_bit,
             tsdr_clocks: first_bit * Tick::from(MIN_TSDR_BITS),
+            tsdr_operands: (first_bit, MIN_TSDR_BITS),
+            tsdr_steps: 0,
             pending_not_before: None,
             response: Vec::with_capacity(dp_consts::MAX_TELEGRAM_LEN),
             stats: Stats::default(),
@@ -403,7 +420,7 @@ impl Transceiver {
     fn response_start(&self) -> Option<Tick> {
         let not_before = self.pending_not_before?;
         self.tx.as_ref()?;
-        // Not yet the rate's or the setting's: a clock or two after a change.
+        // Not yet the rate's or the setting's: up to TSDR_STEPS + 1 clocks after a change.
         if !self.tsdr_settled() {
             return None;
         }
@@ -418,13 +435,29 @@ impl Transceiver {
             .tx
             .as_ref()
             .map_or(self.tx_bit_clocks, |tx| tx.timing.clocks_per_bit());
-        self.tx_bit_clocks == bit && self.tsdr_clocks == bit * Tick::from(self.min_tsdr_bits)
+        let settled = self.tsdr_steps == 0 && self.tsdr_operands == (bit, self.min_tsdr_bits);
+        debug_assert!(
+            !settled || self.tsdr_clocks == bit * Tick::from(self.min_tsdr_bits),
+            "min TSDR's multiply settled on {} for {bit} x {}",
+            self.tsdr_clocks,
+            self.min_tsdr_bits
+        );
+        settled
     }
 
     /// The registers [`tsdr_clocks`](Self::tsdr_clocks) and the bit it is worked out from, at
     /// the end of a clock: from their values as it began, and the transmitter's rate after it.
     fn next_tsdr(&mut self) {
-        self.tsdr_clocks = self.tx_bit_clocks * Tick::from(self.min_tsdr_bits);
+        let operands = (self.tx_bit_clocks, self.min_tsdr_bits);
+        if operands != self.tsdr_operands {
+            self.tsdr_operands = operands;
+            self.tsdr_clocks = 0;
+            self.tsdr_steps = TSDR_STEPS;
+        } else if self.tsdr_steps > 0 {
+            self.tsdr_steps -= 1;
+            let bit_set = (operands.1 >> self.tsdr_steps) & 1;
+            self.tsdr_clocks = 2 * self.tsdr_clocks + Tick::from(bit_set) * operands.0;
+        }
         if let Some(tx) = &self.tx {
             self.tx_bit_clocks = tx.timing.clocks_per_bit();
         }
@@ -442,6 +475,7 @@ impl Transceiver {
         // A telegram under way as the clock began: its last character's verdict, which
         // restarts the watchdog, comes on the next clock.
         let was_inside = self.delimiter.inside();
+        let relocks_failed = self.stats.relock_trials_failed;
         if let Some(v) = self.verdict.take() {
             // The telegram was the last thing its receiver took: nothing comes with its verdict.
             debug_assert!(
@@ -450,24 +484,22 @@ impl Transceiver {
             );
             self.on_verdict(v, &mut out);
         }
-        // A character delivered ended less than a gap ago, so the idle check after it finds no
-        // gap (the gateware compares the gap with the last end kept, not this one).
-        let recent = |c: &RxChar, gap: Tick| now.saturating_sub(c.end) <= gap;
+        let lock_taken_back = self.stats.relock_trials_failed != relocks_failed;
+        // A clock that delivers a character finds no gap: the gateware compares the gap with
+        // the last end kept, not this one (a detection decided late, a second candidate's stop
+        // bit after glitches, ends more than a gap before its delivery at 6M and 12M: the gap
+        // is one bit there). The next clock's check finds it, if no character has begun.
+        let delivers = self.decided.is_some() || self.detected.is_some();
         if let Some((c, idle_before)) = self.decided.take() {
-            debug_assert!(
-                recent(&c, self.delimiter.gap_clocks),
-                "a stale character at {now}"
-            );
             self.last_end = c.end;
             if self.drove_until.is_none_or(|d| c.start > d) {
                 self.on_char(&c, idle_before, &mut out);
             }
         }
         if let Some(c) = self.detected.take() {
-            debug_assert!(
-                recent(&c, self.delimiter.gap_clocks),
-                "a stale detection at {now}"
-            );
+            if now.saturating_sub(c.end) > self.delimiter.gap_clocks {
+                self.stats.detections_past_gap += 1;
+            }
             self.last_end = c.end;
             self.on_char(&c, Tick::MAX, &mut out);
         }
@@ -520,6 +552,7 @@ impl Transceiver {
             if level != held[b.index()] {
                 let idle = if level { 0 } else { idle_before };
                 rx.on_edge(now, level, idle, &mut self.rx_q);
+                self.stats.relock_falls += u64::from(lock_taken_back && !level);
             }
             if now >= self.rx_q.deadline {
                 // Delivered on the next clock.
@@ -530,7 +563,7 @@ impl Transceiver {
             // receiver's logic and theirs do not fit one 48 MHz clock together (README
             // "Gateware"). A fall's clock has no idle line; a false start that ends on this
             // clock holds them one clock.
-            if !was_taking {
+            if !was_taking && !delivers {
                 let d = self.delimiter.on_idle(self.idle(), now);
                 self.on_delivery(d, &mut out);
             }

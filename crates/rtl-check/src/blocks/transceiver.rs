@@ -16,12 +16,13 @@ use super::status_code;
 use crate::{Block, Case, Event, Trace};
 use dp_consts::Baud;
 use dp_phy::autobaud::AutoBaud;
-use dp_phy::bus::{FaultInjector, FaultWindow, LineFault};
+use dp_phy::bus::{FaultInjector, FaultWindow, LineFault, Outgoing};
 use dp_phy::delimiter::Status;
 use dp_phy::sweep::{self, SweepCase};
 use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Observer, Testbench};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::transceiver::Stats;
+use dp_phy::uart::CharFault;
 use dp_phy::{BaudState, BitTiming, Config, Tick, Transceiver};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -413,6 +414,112 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
     (case, stats)
 }
 
+/// A lock at `lock` taken back on a clock on which the line falls at its rate: two polls at
+/// `lock`, a telegram at `other` that fails the trial it starts (`end`), and a low pulse of
+/// two `lock` bits whose fall the lock's channel samples on the verdict's clock, then two polls
+/// again. A run without the pulse says when the verdict comes; the pulse starts `offset` clocks
+/// from it. The pulse is a character whose idle time before it comes from the lock's idle line:
+/// after a gap, an earlier pulse of two `lock` bits about a tenth of `other`'s bit after the
+/// telegram's last character puts that line's rise after its end (so the idle time is the lock's line's,
+/// past TSYN: the character opens a telegram with a framing error); after a bad FCS the idle
+/// time is short of TSYN (not synced). Returns the case and the model's counters
+/// (`relock_falls`: whether the fall met the verdict).
+fn relock_fall_case(
+    lock: Baud,
+    other: Baud,
+    end: TrialEnd,
+    offset: i64,
+    seed: u64,
+) -> (Case, Stats) {
+    let lock_bit = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, lock).clocks_per_bit();
+    let run = |pulses: &[Tick], recorder: Option<&Rc<RefCell<Recorder>>>| {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let at = |b: Baud| BitTiming::new(DEFAULT_CLOCK_HZ, b, rng_ppm(seed, b));
+        let mut tb = match recorder {
+            Some(r) => observed_bench(r, at(lock)),
+            None => Testbench::new(Config::default(), at(lock), FaultInjector::none()),
+        };
+        for &start in pulses {
+            tb.bus.faults.add(FaultWindow {
+                start,
+                len: 2 * lock_bit,
+                fault: LineFault::Stuck(false),
+            });
+        }
+        for t in poll_sequence(&mut rng, 2) {
+            tb.send(40, &t);
+        }
+        tb.run_out(40, false);
+        tb.set_master_timing(at(other));
+        let mut failing = random_telegram(&mut rng, Kind::Sd1, 3);
+        match end {
+            TrialEnd::BadFcs => {
+                let fcs = failing.len() - 2;
+                failing[fcs] ^= 0x5A;
+            }
+            TrialEnd::Gap => failing.truncate(3),
+        }
+        tb.send(40, &failing);
+        tb.run_out(40, false);
+        tb.set_master_timing(at(lock));
+        for t in poll_sequence(&mut rng, 2) {
+            tb.send(40, &t);
+        }
+        tb.run_out(40, false);
+        tb
+    };
+    // The verdict's clock: the baud state back at the lock after the trial.
+    let verdict = |tb: &Testbench| {
+        tb.baud_log
+            .windows(2)
+            .find(|w| w[0].1 == BaudState::Trial(other) && w[1].1 == BaudState::Locked(lock))
+            .map(|w| w[1].0)
+            .expect("the trial fails and the lock is taken back")
+    };
+    let mut pulses = Vec::new();
+    if let TrialEnd::Gap = end {
+        let dry = run(&[], None);
+        let failed = dry
+            .delivered
+            .iter()
+            .find(|d| d.status == Status::Gap)
+            .expect("the trial's telegram is cut by a gap");
+        // A gap's delivery comes a gap (a bit) and a clock after the last character's end.
+        let other_bit = BitTiming::whole_clocks(DEFAULT_CLOCK_HZ, other).clocks_per_bit();
+        pulses.push(failed.end - other_bit + other_bit / 10);
+    }
+    let at = verdict(&run(&pulses, None));
+    pulses.push(at.saturating_add_signed(offset));
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let tb = run(&pulses, Some(&recorder));
+    let stats = tb.adapter.stats();
+    drop(tb);
+    let case = finish(
+        recorder,
+        format!("transceiver-relock-fall-{lock}-then-{other}-{end:?}{offset}"),
+    );
+    (case, stats)
+}
+
+/// [`relock_fall_case`]s (short: the quick set has them all): the lock at 12M and at 3M,
+/// each trial ended both ways, with the pulse at the offsets around the verdict that put its
+/// fall on the verdict's clock and next to it.
+fn relock_fall_cases() -> Vec<(Case, Stats)> {
+    let pairs = [
+        (Baud::B12000000, Baud::B187500),
+        (Baud::B3000000, Baud::B45450),
+    ];
+    let mut out = Vec::new();
+    for (i, &(lock, other)) in pairs.iter().enumerate() {
+        for end in [TrialEnd::BadFcs, TrialEnd::Gap] {
+            for offset in -2..=0 {
+                out.push(relock_fall_case(lock, other, end, offset, 500 + i as u64));
+            }
+        }
+    }
+    out
+}
+
 /// A start delimiter the search decides on after the next character's start bit and its
 /// first bit's rise: from power-up, a master 5,000 ppm fast sends an SD2 telegram (its LE, 5,
 /// sends a 1 first) with a high glitch in the delimiter's start bit, `at` hundredths of a bit
@@ -443,6 +550,49 @@ fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats)
         format!("transceiver-late-decision-{baud}-{at}-{len}"),
     );
     (case, stats)
+}
+
+/// dp-phy's `fast_equals_strict` stream: six random telegrams of every kind from a master
+/// `ppm` off, 30 to 39 idle bits apart, the fourth with a data bit flipped, and 20 glitches of
+/// up to a bit over them. Returns the case and how many detections the model delivered more
+/// than a gap (a bit at 6M and 12M) after their character's end.
+fn glitch_burst_case(baud: Baud, seed: u64, ppm: i32) -> (Case, Stats) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let mut tb = observed_bench(&recorder, BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm));
+    let t = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 0);
+    for i in 0..6 {
+        let kind = Kind::ALL[rng.gen_range(0..5)];
+        let n = rng.gen_range(1..20);
+        let bytes = random_telegram(&mut rng, kind, n);
+        tb.send_outgoing(Outgoing {
+            idle_bits: rng.gen_range(30..40),
+            bytes,
+            faults: if i == 3 {
+                vec![(1, CharFault::FlipBit(2))]
+            } else {
+                vec![]
+            },
+        });
+    }
+    let mut faults = FaultInjector::none();
+    faults.glitches(seed, 0, t.clocks_for(6 * 300, 1), 20, t.clocks_per_bit());
+    tb.bus.faults = faults;
+    tb.run_out(60, false);
+    let stats = tb.adapter.stats();
+    drop(tb);
+    let case = finish(
+        recorder,
+        format!("transceiver-glitch-burst-{baud}-{seed}-{ppm}"),
+    );
+    (case, stats)
+}
+
+/// [`glitch_burst_case`]s the model's property tests found (CI's debug builds: a detection
+/// delivered more than a gap after its end, where the model checked the gap against it and
+/// the gateware against the last end kept).
+fn glitch_burst_cases() -> Vec<(Case, Stats)> {
+    vec![glitch_burst_case(Baud::B6000000, 931930634936587214, -4178)]
 }
 
 /// The transmitter: a master at `baud` polls, and the adapter answers each good telegram (1
@@ -569,6 +719,8 @@ pub fn transceiver_cases(quick: bool) -> Vec<Case> {
     cases.extend(trials_cases(quick).into_iter().map(|(c, _)| c));
     cases.extend(late_decision_cases(quick).into_iter().map(|(c, _)| c));
     cases.extend(response_cases(quick).into_iter().map(|(c, _)| c));
+    cases.extend(glitch_burst_cases().into_iter().map(|(c, _)| c));
+    cases.extend(relock_fall_cases().into_iter().map(|(c, _)| c));
     cases
 }
 
@@ -692,6 +844,32 @@ mod tests {
             }
         }
         assert!(failed.is_empty(), "{failed:#?}");
+    }
+
+    /// Each pair's relock-fall cases take a lock back with a fall at its rate on the verdict's
+    /// clock in at least one of them, for each way the trial ends.
+    #[test]
+    fn the_relock_falls_meet_the_verdict() {
+        for (i, cases) in relock_fall_cases().chunks(3).enumerate() {
+            for (case, stats) in cases {
+                assert_eq!(stats.relock_trials_failed, 1, "{}: {stats:?}", case.name);
+            }
+            let hits: Vec<&str> = cases
+                .iter()
+                .filter(|(_, stats)| stats.relock_falls >= 1)
+                .map(|(case, _)| case.name.as_str())
+                .collect();
+            assert!(!hits.is_empty(), "set {i}: no fall on the verdict's clock");
+            println!("{hits:?}");
+        }
+    }
+
+    /// The glitch bursts deliver a detection more than a gap after its end.
+    #[test]
+    fn the_glitch_bursts_deliver_a_detection_past_the_gap() {
+        for (case, stats) in glitch_burst_cases() {
+            assert!(stats.detections_past_gap >= 1, "{}: {stats:?}", case.name);
+        }
     }
 
     /// The late decisions' cases, quick and full, are decided after the next character's

@@ -154,8 +154,12 @@ module transceiver #(
   logic [31:0] det_idle_from;
   logic        dp_fell_q;
   // Its clock, start and end (stage 3).
-  logic [31:0] det_at, det_start, det_end;
+  logic [31:0] det_at, det_end;
   logic [IW-1:0] det_age;
+  // The detected character's end seen from now: the clocks since it (negative: still to come),
+  // IW + 1 bits, so that its tick takes one subtraction and the hand-over's idle time none of
+  // 32 bits.
+  logic signed [IW:0] det_end_ago, det_idle_ago;
   logic [7:0]  det_byte_q, det_byte_d;
   logic [31:0] det_end_q, det_end_d;
   logic        verdict_q, verdict_d, verdict_good_q, verdict_good_d;
@@ -448,9 +452,13 @@ module transceiver #(
     det       = dp_valid_q;
     det_at    = now_q - 32'd1;
     det_age   = dp_age_q;
-    det_start = det_at - 32'(det_age);
-    det_end   = det_start + 32'(rate_stop_end(dp_rate_q));
+    det_end_ago = $signed({1'b0, det_age}) + (IW + 1)'(1)
+                - $signed((IW + 1)'(rate_stop_end(dp_rate_q)));
+    det_end   = now_q - 32'(det_end_ago);
     det_idle_from = dp_rose_q ? det_at : det_end;
+    // The idle clocks before the hand-over's fall (on the detection's clock or this one), from
+    // det_idle_from: the decision's clock, or the character's end.
+    det_idle_ago = dp_rose_q ? (IW + 1)'(!dp_fell_q) : det_end_ago - (IW + 1)'(dp_fell_q);
     // The receiver's own rate, or the trial's own start delimiter read at a slower rate.
     ignored   = (rx_on_m && rate_m == dp_rate_q)
              || (state_m == Trial && since_trial_q <= det_age);
@@ -504,7 +512,7 @@ module transceiver #(
       det_end_d         = det_end;
       // Handed over as of the detection's clock: its fall there, or one on this clock.
       rx_hand_over      = 1'b1;
-      rx_hand_over_idle = idle_since(dp_fell_q ? det_at : now_q, det_idle_from);
+      rx_hand_over_idle = det_idle_ago < 0 ? '0 : det_idle_ago[IW] ? '1 : det_idle_ago[IW-1:0];
       rx_hand_over_fell_last = dp_fell_q;
     end
   end

@@ -279,6 +279,18 @@ impl Recorder {
     }
 }
 
+/// [`finish`], with the model's counters at the bench's end.
+fn finish_with_stats(
+    tb: Testbench,
+    recorder: Rc<RefCell<Recorder>>,
+    name: String,
+) -> (Case, Stats) {
+    let stats = tb.adapter.stats();
+    // The bench's observer holds the recorder.
+    drop(tb);
+    (finish(recorder, name), stats)
+}
+
 /// An observer that gives `recorder` every clock of a bench.
 fn observer(recorder: &Rc<RefCell<Recorder>>) -> Observer {
     let recorder = recorder.clone();
@@ -405,13 +417,11 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
     tb.run_out(40, false);
     tb.set_master_timing(at(lock));
     polls(&mut tb, &mut rng, 2);
-    let stats = tb.adapter.stats();
-    drop(tb);
-    let case = finish(
+    finish_with_stats(
+        tb,
         recorder,
         format!("transceiver-trials-{lock}-then-{other}-{end:?}"),
-    );
-    (case, stats)
+    )
 }
 
 /// A lock at `lock` taken back on a clock on which the line falls at its rate: two polls at
@@ -492,13 +502,11 @@ fn relock_fall_case(
     pulses.push(at.saturating_add_signed(offset));
     let recorder = Rc::new(RefCell::new(Recorder::new()));
     let tb = run(&pulses, Some(&recorder));
-    let stats = tb.adapter.stats();
-    drop(tb);
-    let case = finish(
+    finish_with_stats(
+        tb,
         recorder,
         format!("transceiver-relock-fall-{lock}-then-{other}-{end:?}{offset}"),
-    );
-    (case, stats)
+    )
 }
 
 /// [`relock_fall_case`]s (short: the quick set has them all): the lock at 12M and at 3M,
@@ -543,13 +551,11 @@ fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats)
         tb.send(40, &t);
     }
     tb.run_out(40, false);
-    let stats = tb.adapter.stats();
-    drop(tb);
-    let case = finish(
+    finish_with_stats(
+        tb,
         recorder,
         format!("transceiver-late-decision-{baud}-{at}-{len}"),
-    );
-    (case, stats)
+    )
 }
 
 /// dp-phy's `fast_equals_strict` stream: six random telegrams of every kind from a master
@@ -579,13 +585,11 @@ fn glitch_burst_case(baud: Baud, seed: u64, ppm: i32) -> (Case, Stats) {
     faults.glitches(seed, 0, t.clocks_for(6 * 300, 1), 20, t.clocks_per_bit());
     tb.bus.faults = faults;
     tb.run_out(60, false);
-    let stats = tb.adapter.stats();
-    drop(tb);
-    let case = finish(
+    finish_with_stats(
+        tb,
         recorder,
         format!("transceiver-glitch-burst-{baud}-{seed}-{ppm}"),
-    );
-    (case, stats)
+    )
 }
 
 /// [`glitch_burst_case`]s the model's property tests found (CI's debug builds: a detection

@@ -566,7 +566,10 @@ module transceiver #(
   // idle for min TSDR as the clock began (idle_o, idle_since_o: the registers) and its
   // earliest tick has come, unless this clock gives the transmitter a new rate or none (a
   // trial, a lock taken back, a search: the model's use_rate and search_again), which drops
-  // what waits and stops what goes out.
+  // what waits and stops what goes out. The idle time is stage 2's: with idle_o it counts
+  // from the registers (no character is delivered, and on the clock a detection's reaches
+  // the delimiter the last end kept is its own), and a lock taken back clears the
+  // transmitter whatever it says.
   logic [7:0]  min_tsdr;
   logic        tx_busy, tx_clear, tx_start, respond_ok, resp_waiting, resp_due;
   logic [7:0]  resp_len;
@@ -580,7 +583,7 @@ module transceiver #(
     resp_not_before = pending_q ? not_before_q : respond_not_before_i;
     resp_due        = resp_waiting && !tsdr_restart && tsdr_step_q == '0 && idle_o
                       && $signed(now_q - resp_not_before) >= 0
-                      && idle_since(now_q, idle_since_o) >= IW'(tsdr_q);
+                      && idle_before >= IW'(tsdr_q);
     tx_clear        = dl_config || dl_reset;
     tx_start        = resp_due && !tx_clear;
     pending_d       = resp_waiting && !resp_due && !tx_clear;

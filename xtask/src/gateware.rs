@@ -145,7 +145,9 @@ pub fn run(args: &[String]) -> Result<()> {
     let top_verdict = match top_fmax {
         Some(f) if f < clock_mhz => format!(", Fmax {f:.1} MHz{under}"),
         Some(f) => format!(", Fmax {f:.1} MHz"),
-        None => ": does not fit (issue 27, README \"Gateware\")".to_string(),
+        None if top_used > total => ": does not fit (issue 27, README \"Gateware\")".to_string(),
+        None => ": fits, but nextpnr did not place and route it (issue 27, README \"Gateware\")"
+            .to_string(),
     };
     println!(
         "  the transceiver's top on the part (gateware/rtl/transceiver.v): {top_used}/{total} logic cells ({}%){top_verdict}",
@@ -160,9 +162,14 @@ pub fn run(args: &[String]) -> Result<()> {
         rx_top_used * 100 / total.max(1),
         if rx_top_fmax < clock_mhz { under } else { "" }
     );
+    let why = match top_fmax {
+        Some(f) if f >= clock_mhz => "the top has no pins or responder yet",
+        Some(_) => "the top is under the clock, and has no pins or responder yet",
+        None => "the top does not fit yet, and has no pins or responder",
+    };
     let top_fmax = top_fmax.map_or("none".to_string(), |f| format!("{f:.1}"));
     println!(
-        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} top_cells={top_used}/{total} top_fmax_mhz={top_fmax} rx_top_cells={rx_top_used}/{total} rx_top_fmax_mhz={rx_top_fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: the top does not fit yet, and has no pins or responder)",
+        "gateware: part={} search_cells={used}/{total} search_fmax_mhz={fmax:.1} top_cells={top_used}/{total} top_fmax_mhz={top_fmax} rx_top_cells={rx_top_used}/{total} rx_top_fmax_mhz={rx_top_fmax:.1} clock_mhz={clock_mhz} bitstream=none (issue 27: {why})",
         fpga.part
     );
     if total != u64::from(fpga.logic_cells) {
@@ -223,8 +230,9 @@ fn place_and_route(
     Ok((used, total, fmax))
 }
 
-/// [`place_and_route`] for a block measured rather than gated, which may not fit the part:
-/// then the cells it needs, from nextpnr's utilisation line, and no Fmax.
+/// [`place_and_route`] for a block measured rather than gated, which may not fit the part, or
+/// fit it so tightly that nextpnr cannot place or route it: then the cells it needs, from
+/// nextpnr's utilisation line, and no Fmax.
 fn place_measured(tools: &Tools, block: &Block, root: &Path) -> Result<(u64, u64, Option<f64>)> {
     match place_and_route(tools, block, root, true) {
         Ok((used, total, fmax)) => Ok((used, total, Some(fmax))),
@@ -234,8 +242,13 @@ fn place_measured(tools: &Tools, block: &Block, root: &Path) -> Result<(u64, u64
                 .join(format!("{}-pnr.log", block.build_name()));
             let log = std::fs::read_to_string(report).unwrap_or_default();
             match logic_cells(&log) {
-                Some((used, total)) if used > total => Ok((used, total, None)),
-                _ => Err(e),
+                Some((used, total)) => {
+                    if used <= total {
+                        eprintln!("  (the top fits, but nextpnr failed: {e:#})");
+                    }
+                    Ok((used, total, None))
+                }
+                None => Err(e),
             }
         }
     }

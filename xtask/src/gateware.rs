@@ -244,7 +244,7 @@ fn place_measured(tools: &Tools, block: &Block, root: &Path) -> Result<(u64, u64
             match logic_cells(&log) {
                 Some((used, total)) => {
                     if used <= total {
-                        eprintln!("  (the top fits, but nextpnr failed: {e:#})");
+                        eprintln!("  ({} fits, but nextpnr failed: {e:#})", block.build_name());
                     }
                     Ok((used, total, None))
                 }

@@ -475,16 +475,15 @@ impl Transceiver {
         // A telegram under way as the clock began: its last character's verdict, which
         // restarts the watchdog, comes on the next clock.
         let was_inside = self.delimiter.inside();
-        let relocks_failed = self.stats.relock_trials_failed;
+        let mut lock_taken_back = false;
         if let Some(v) = self.verdict.take() {
             // The telegram was the last thing its receiver took: nothing comes with its verdict.
             debug_assert!(
                 self.decided.is_none() && self.detected.is_none(),
                 "a character on a verdict's clock at {now}"
             );
-            self.on_verdict(v, &mut out);
+            lock_taken_back = self.on_verdict(v, &mut out);
         }
-        let lock_taken_back = self.stats.relock_trials_failed != relocks_failed;
         // A clock that delivers a character finds no gap: the gateware compares the gap with
         // the last end kept, not this one (a detection decided late, a second candidate's stop
         // bit after glitches, ends more than a gap before its delivery at 6M and 12M: the gap
@@ -688,8 +687,8 @@ impl Transceiver {
 
     /// The last clock's telegram, for the baud state: a good one confirms a trial and restarts
     /// the watchdog; a bad one fails a trial, back to its lock (the lock's receiver and idle
-    /// line from this clock on) or to searching.
-    fn on_verdict(&mut self, v: Verdict, out: &mut TickOut) {
+    /// line from this clock on) or to searching. Returns whether it took a lock back.
+    fn on_verdict(&mut self, v: Verdict, out: &mut TickOut) -> bool {
         match v {
             Verdict::Good { confirms } => {
                 if let (BaudState::Trial(b), true) = (self.state, confirms) {
@@ -700,6 +699,7 @@ impl Transceiver {
                     }
                 }
                 self.watchdog.start(self.now, self.watchdog_clocks);
+                false
             }
             Verdict::Bad => {
                 if let BaudState::Trial(_) = self.state {
@@ -714,10 +714,12 @@ impl Transceiver {
                             }
                             self.state = BaudState::Locked(locked);
                             out.baud_changed = true;
+                            return true;
                         }
                         None => self.search_again(out),
                     }
                 }
+                false
             }
         }
     }

@@ -16,7 +16,6 @@ pub use edge_rx::{edge_rx, edge_rx_cases};
 pub use rate_idle::{rate_idle, rate_idle_cases};
 pub use transceiver::{
     bench_case, near_wrap_cases, rates_svh, transceiver, transceiver_cases, transceiver_near_wrap,
-    NEAR_WRAP,
 };
 pub use watchdog::{baud_watchdog_width, dp_watchdog_width, watchdog, watchdog_cases};
 

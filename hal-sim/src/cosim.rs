@@ -264,6 +264,9 @@ pub struct Figures {
     pub late_responses: u64,
     /// Telegrams the transceiver delivered with an error (never forwarded).
     pub bad_telegrams: u64,
+    /// Telegrams the transceiver delivered as good that the station on the line did not send
+    /// (noise made into a telegram, or one corrupted past its checks): never allowed.
+    pub corrupt_delivered: u64,
     /// Trials from a lock that failed back to it, while they go unlogged
     /// (`CoSim::log_failed_trials`).
     pub trials_failed_back: u64,
@@ -305,6 +308,12 @@ pub struct CoSim<F: Firmware> {
     /// few clocks run to run (a link byte enters QEMU on its main loop), and random noise
     /// then makes a start delimiter at another rate in some runs and not in others.
     pub log_failed_trials: bool,
+    /// A waveform of the line and the transceiver, clock by clock, while set (the soak's
+    /// reproduction writes one for the event that failed).
+    pub tracer: Option<dp_phy::trace::Tracer<std::io::BufWriter<std::fs::File>>>,
+    /// The last telegrams of masters and tools no longer on the bus: one of them can still be
+    /// in the transceiver's delimiter when its sender goes.
+    retired_telegrams: std::collections::VecDeque<Vec<u8>>,
 }
 
 fn ticks_from_us(us: u64) -> Tick {
@@ -355,6 +364,8 @@ impl<F: Firmware> CoSim<F> {
             last_baud_state: BaudState::Searching,
             relock_trials_failed: 0,
             log_failed_trials: true,
+            tracer: None,
+            retired_telegrams: Default::default(),
         };
         sim.bridge.boot(0);
         sim.settle()?;
@@ -412,6 +423,7 @@ impl<F: Firmware> CoSim<F> {
     pub fn start_master(&mut self, setup: MasterSetup) {
         self.event(format!("master: {} at {}", setup.address, setup.baud));
         self.remember_echo();
+        self.retire_telegrams();
         let mut master = Master::new(setup, self.now);
         // The drive still holds what earlier masters sent: not "a value never sent".
         master.sent.clone_from(&self.echo_history);
@@ -429,6 +441,7 @@ impl<F: Firmware> CoSim<F> {
         slot_bits: u64,
     ) -> io::Result<Option<Vec<u8>>> {
         self.event(format!("tool: request {:02X?}", request));
+        self.retire_telegrams();
         let mut tool = Master::new(setup, self.now);
         tool.tool = true;
         tool.phy.send(request);
@@ -443,6 +456,7 @@ impl<F: Firmware> CoSim<F> {
             let received = &s.master.as_ref().unwrap().phy.received;
             fdl::Repr::parse_bytes(received).is_ok()
         })?;
+        self.retire_telegrams();
         let answer = self.master.take().unwrap().phy.received;
         self.event(format!("tool: answer {:02X?}", answer));
         Ok(answered.then_some(answer))
@@ -459,7 +473,34 @@ impl<F: Firmware> CoSim<F> {
     pub fn stop_master(&mut self) {
         self.event("master: gone".into());
         self.remember_echo();
+        self.retire_telegrams();
         self.master = None;
+    }
+
+    /// Takes the master off the bus, to be put back later (a tool steps in meanwhile).
+    pub fn take_master(&mut self) -> Option<Master> {
+        self.retire_telegrams();
+        self.master.take()
+    }
+
+    /// Keeps the master's last telegrams, before it is replaced or goes.
+    fn retire_telegrams(&mut self) {
+        if let Some(m) = &self.master {
+            self.retired_telegrams.extend(m.phy.recent.iter().cloned());
+            let excess = self
+                .retired_telegrams
+                .len()
+                .saturating_sub(crate::master::RECENT_TELEGRAMS);
+            self.retired_telegrams.drain(..excess);
+        }
+    }
+
+    /// Whether `bytes` is a telegram a station on the bus sent lately.
+    fn sent_lately(&self, bytes: &[u8]) -> bool {
+        let recent = self.master.iter().flat_map(|m| m.phy.recent.iter());
+        recent
+            .chain(self.retired_telegrams.iter())
+            .any(|sent| sent[..] == *bytes)
     }
 
     pub fn now_us(&self) -> u64 {
@@ -509,6 +550,7 @@ impl<F: Firmware> CoSim<F> {
             if let Some(master) = &mut self.master {
                 master.phy.now = self.now;
                 master.poll(now_us);
+                master.phy.drop_stale_characters();
             }
             self.next_master_poll = self.now + self.master_poll_ticks();
         }
@@ -517,7 +559,15 @@ impl<F: Firmware> CoSim<F> {
             .set_min_tsdr(self.bridge.responder.min_tsdr_bits());
         let master_drive = self.master.as_ref().and_then(|m| m.phy.tx.drive());
         let adapter_drive = self.adapter.drive();
+        let collisions = self.bus.collisions;
         let line = self.bus.resolve(self.now, [master_drive, adapter_drive]);
+        if collisions == 0 && self.bus.collisions > 0 {
+            let telegram = self.master.as_ref().and_then(|m| m.phy.recent.back().cloned());
+            self.event(format!(
+                "collision at {} us: the master (its last telegram {telegram:02X?}) and the adapter drove the line",
+                self.now_us()
+            ));
+        }
         let mut limit = end - self.now;
         limit = limit.min(self.next_master_poll.saturating_sub(self.now).max(1));
         if let Some(at) = self.bridge.next_ns() {
@@ -535,6 +585,8 @@ impl<F: Firmware> CoSim<F> {
         .min(self.bus.faults.quiet_for(self.now))
         .min(limit);
         let busy = !line || master_drive.is_some() || adapter_drive.is_some();
+        // A waveform samples every clock.
+        let quiet = if self.tracer.is_some() { 1 } else { quiet };
         let (ticks, out) = if quiet > 1 {
             self.adapter.advance(line, quiet)
         } else {
@@ -566,6 +618,9 @@ impl<F: Firmware> CoSim<F> {
             }
         }
         self.now += ticks;
+        if let Some(tracer) = &mut self.tracer {
+            tracer.sample(self.now, line, &self.adapter)?;
+        }
         if out.baud_changed {
             self.baud_changed();
         }
@@ -671,6 +726,9 @@ impl<F: Firmware> CoSim<F> {
         if t.status != TelegramStatus::Good {
             self.figures.bad_telegrams += 1;
             return Ok(());
+        }
+        if !self.sent_lately(t.bytes()) {
+            self.figures.corrupt_delivered += 1;
         }
         if self.figures.lost_before_lock.is_none() {
             let sent = self.master.as_ref().map_or(1, |m| m.phy.telegrams_sent);

@@ -9,6 +9,8 @@
 //! - [`drive_sim`] (crates/drive-sim): the drive behind the adapter and the Modbus RTU line to
 //!   it on simulated time.
 //! - [`bridge`]: the transceiver's MCU side (responder, link, MCU) on board time.
+//! - [`soak`]: the soak campaign, a seeded random schedule of everything the scenarios do,
+//!   with invariants checked as it runs.
 #![deny(unsafe_code)]
 
 /// The simulated drive, its own crate (`crates/drive-sim`).
@@ -22,3 +24,4 @@ pub mod master;
 pub mod msac1_master;
 pub mod scenarios;
 pub mod serial;
+pub mod soak;

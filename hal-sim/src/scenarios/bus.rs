@@ -28,7 +28,7 @@ pub fn autodetect<F: Firmware>(
     );
     // The master steps aside for the tool and comes back for the run's echo check
     // (nothing runs after this).
-    let master = sim.master.take();
+    let master = sim.take_master();
     probe_services(sim, c, baud)?;
     sim.master = master;
     Ok(Vec::new())

@@ -52,7 +52,7 @@ fn start<F: Firmware>(sim: &mut CoSim<F>, setup: MasterSetup) -> io::Result<bool
     })
 }
 
-fn words(bytes: &[u8]) -> Vec<u16> {
+pub(crate) fn words(bytes: &[u8]) -> Vec<u16> {
     bytes
         .chunks_exact(2)
         .map(|b| u16::from_be_bytes([b[0], b[1]]))
@@ -115,7 +115,7 @@ fn pkw<F: Firmware>(
     Ok(replied.then(|| inputs(sim)[..4].to_vec()))
 }
 
-fn vendor_request(task: Task, code: u16, value: u16) -> [u16; 4] {
+pub(crate) fn vendor_request(task: Task, code: u16, value: u16) -> [u16; 4] {
     let bytes = Request {
         task,
         code: FunctionCode(code),
@@ -127,7 +127,7 @@ fn vendor_request(task: Task, code: u16, value: u16) -> [u16; 4] {
 }
 
 /// A vendor PKW reply: (reply ID, value).
-fn vendor_reply(reply: &Option<Vec<u16>>) -> Option<(ReplyId, u16)> {
+pub(crate) fn vendor_reply(reply: &Option<Vec<u16>>) -> Option<(ReplyId, u16)> {
     reply
         .as_ref()
         .map(|r| (ReplyId::from((r[0] >> 12) as u8), r[3]))
@@ -900,7 +900,7 @@ fn wait_drive<F: Firmware>(
 
 /// A Global_Control Clear_Data from the master's address, sent by the commissioning tool
 /// (profirust 0.6 cannot send one): the PLC stopped.
-fn plc_stop<F: Firmware>(sim: &mut CoSim<F>, setup: &MasterSetup) -> io::Result<()> {
+pub(crate) fn plc_stop<F: Firmware>(sim: &mut CoSim<F>, setup: &MasterSetup) -> io::Result<()> {
     let payload = [dp_consts::control_command::CLEAR_DATA, 0];
     let request = Repr::Data(DataRepr {
         da: SWITCH_ADDRESS,

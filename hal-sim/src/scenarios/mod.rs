@@ -15,6 +15,8 @@ mod drive;
 mod support;
 
 pub use support::{Checks, Report, SWITCH_ADDRESS};
+pub(crate) use drive::{plc_stop, vendor_reply, vendor_request, words};
+pub(crate) use support::{limit_us, probe_services};
 
 use crate::cosim::{CoSim, Figures, Program};
 use crate::firmware::Firmware;
@@ -137,6 +139,10 @@ pub fn run<F: Firmware>(name: &str, firmware: F) -> io::Result<(Outcome, F)> {
     c.check(
         "no response later than max TSDR",
         figures.late_responses == 0,
+    );
+    c.check(
+        "no telegram delivered as good that the master did not send",
+        figures.corrupt_delivered == 0,
     );
     c.check(
         "the firmware never got a malformed telegram",

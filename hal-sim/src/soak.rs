@@ -1,0 +1,831 @@
+//! The soak campaign (issue 31): the whole adapter (the firmware, in QEMU or in-process, with
+//! the transceiver model, a profirust master and the drive simulator) driven by a seeded random
+//! schedule of what the scenarios do one at a time, with invariants checked as it runs.
+//!
+//! Contract:
+//! - The schedule is a function of the seed alone: event `i` of seed `S` is the same in every
+//!   run, whatever the firmware does (each event draws from a generator of its own, seeded
+//!   from `S` and `i`). In-process a run replays exactly; under QEMU the bus timing can move by
+//!   a few clocks from run to run (a link byte enters QEMU on its main loop), so a replay runs
+//!   the same events, not always the same clocks.
+//! - The invariants are checked every millisecond of bus time and at the end of every event
+//!   ([`Soak::watch`], [`Soak::recover`]); the first violation ends the run and is reported
+//!   with its event's index and the events before it.
+//! - A firmware that stops answering (a panic, a HardFault, QEMU gone) is a violation, not an
+//!   error of the campaign.
+//!
+//! What it does not cover yet, and says so in the README: DP-V1 requests, Sync and Freeze,
+//! Set_Slave_Add and a power cut inside a storage write, the PROFIdrive profile (every master
+//! here runs the vendor profile with PZD2 echoed through the drive, which is what lets the
+//! outputs be followed to the drive and back).
+
+use crate::cosim::{echo_user_prm, CoSim, MasterSetup, Program};
+use crate::firmware::Firmware;
+use crate::scenarios::{self, Checks, SWITCH_ADDRESS};
+use dp_consts::Baud;
+use dp_phy::bus::{FaultWindow, LineFault};
+use dp_phy::{BaudState, Tick};
+use drive_sim::{LinkFault, ACCEL_TIME, SET_FREQUENCY};
+use profidrive::pkw::{ReplyId, Task};
+use profidrive::ppo::Ppo;
+use profidrive::prm::FailSafeMode;
+use profidrive::words::{control, status};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::{BTreeSet, VecDeque};
+use std::io;
+
+const TICKS_PER_US: u64 = (crate::cosim::CLOCK_HZ / 1_000_000) as u64;
+
+/// The control word every soak master runs the drive with (vendor profile).
+const RUN: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
+
+/// PZD2 out in the fail-safe mode UseFailSafeValues: a set frequency no master sends (the
+/// masters send whole hertz).
+const FAIL_SAFE_FREQUENCY: u16 = 1234;
+
+/// How many of the last events a violation prints.
+const HISTORY: usize = 12;
+
+/// Bus time between two looks at the invariants.
+const WATCH_US: u64 = 1_000;
+
+/// What a run is asked to do.
+#[derive(Clone, Debug)]
+pub struct Options {
+    pub seed: u64,
+    /// Stop after this many events.
+    pub events: u64,
+    /// Stop at the first event that would start after this moment (a time budget).
+    pub deadline: Option<std::time::Instant>,
+    /// Event indices from which a waveform is written to this file (a reproduction).
+    pub trace_from: Option<(u64, std::path::PathBuf)>,
+}
+
+/// The first violation: which event, what failed, and the events up to it.
+#[derive(Clone, Debug)]
+pub struct Violation {
+    pub event: u64,
+    pub what: String,
+    pub last_events: Vec<String>,
+    /// The adapter's last state changes (the scenarios' event log: states, LEDs, locks).
+    pub adapter_events: Vec<String>,
+}
+
+/// What a run did.
+#[derive(Clone, Debug)]
+pub struct Summary {
+    pub seed: u64,
+    pub events: u64,
+    pub simulated_us: u64,
+    pub invariants_checked: u64,
+    pub violation: Option<Violation>,
+    /// Each kind of event and how often it ran.
+    pub kinds: std::collections::BTreeMap<&'static str, u64>,
+}
+
+impl Summary {
+    /// The campaign's last line.
+    pub fn line(&self) -> String {
+        format!(
+            "soak: seed={} events={} simulated_s={:.3} invariants_checked={} violations={}",
+            self.seed,
+            self.events,
+            self.simulated_us as f64 / 1e6,
+            self.invariants_checked,
+            usize::from(self.violation.is_some())
+        )
+    }
+}
+
+/// The parameters the master runs with: what a Set_Prm and a Chk_Cfg carry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Plan {
+    baud: Baud,
+    ppo: Ppo,
+    fail_safe: FailSafeMode,
+    watchdog_ms: u64,
+}
+
+impl Plan {
+    fn setup(&self) -> MasterSetup {
+        let mut setup = MasterSetup::new(self.baud, SWITCH_ADDRESS);
+        setup.config = self.ppo.cfg().to_vec();
+        let mut prm = echo_user_prm();
+        prm.fail_safe = self.fail_safe;
+        prm.fail_safe_pzd[0] = RUN;
+        prm.fail_safe_pzd[1] = FAIL_SAFE_FREQUENCY;
+        setup.user_prm = prm.encode().to_vec();
+        setup.watchdog_ms = self.watchdog_ms;
+        setup
+    }
+
+    /// Where PZD1 starts in the outputs and the inputs, in words (after the PKW if any).
+    fn pzd_at(&self) -> usize {
+        if self.ppo.has_pkw() {
+            4
+        } else {
+            0
+        }
+    }
+}
+
+/// One event of the schedule.
+#[derive(Clone, Debug)]
+enum Event {
+    /// Data exchange with a new set frequency, for a while.
+    Steady { frequency: u16, us: u64 },
+    /// The master comes back at another rate.
+    RateChange(Baud),
+    /// Glitches up to two bit times long.
+    NoiseBurst { us: u64, count: usize, seed: u64 },
+    /// One glitch, somewhere in the next few milliseconds.
+    Glitch { after_us: u64, len_bits: u64 },
+    /// The bus cable out: the line idles at the adapter for a while (both ways).
+    CablePull { us: u64 },
+    /// The master stops, and comes back after a while.
+    MasterAway { us: u64 },
+    /// A commissioning tool (a second master, station 3) asks for every DP-V0 service
+    /// profirust does not send.
+    SecondMaster,
+    /// The master parameterises and configures the adapter anew.
+    SetPrm {
+        ppo: Ppo,
+        fail_safe: FailSafeMode,
+        watchdog_ms: u64,
+    },
+    /// Global_Control Clear_Data (the PLC stopped), then the master starts anew.
+    PlcStop,
+    /// A power cycle after a while.
+    PowerCycle { after_us: u64 },
+    /// The drive trips, and the master resets the fault.
+    DriveFault,
+    /// The drive link fails this way for a while.
+    DriveLink { fault: LinkFault, us: u64 },
+    /// A parameter request: (task, code, value, the reply it must get).
+    Pkw {
+        task: Task,
+        code: u16,
+        value: u16,
+        want: Option<(ReplyId, u16)>,
+    },
+}
+
+impl Event {
+    fn kind(&self) -> &'static str {
+        match self {
+            Event::Steady { .. } => "steady",
+            Event::RateChange(_) => "rate-change",
+            Event::NoiseBurst { .. } => "noise-burst",
+            Event::Glitch { .. } => "glitch",
+            Event::CablePull { .. } => "cable-pull",
+            Event::MasterAway { .. } => "master-away",
+            Event::SecondMaster => "second-master",
+            Event::SetPrm { .. } => "set-prm",
+            Event::PlcStop => "plc-stop",
+            Event::PowerCycle { .. } => "power-cycle",
+            Event::DriveFault => "drive-fault",
+            Event::DriveLink { .. } => "drive-link",
+            Event::Pkw { .. } => "pkw",
+        }
+    }
+
+    /// Event `index` of the schedule of `seed`, for a master running `plan`.
+    fn draw(seed: u64, index: u64, plan: &Plan) -> Event {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let ms = |rng: &mut ChaCha8Rng, lo: u64, hi: u64| rng.gen_range(lo..=hi) * 1_000;
+        match rng.gen_range(0..100) {
+            0..=19 => Event::Steady {
+                frequency: rng.gen_range(1..=50) * 100,
+                us: ms(&mut rng, 5, 60),
+            },
+            20..=29 => Event::RateChange(Baud::ALL[rng.gen_range(0..Baud::ALL.len())]),
+            30..=35 => Event::NoiseBurst {
+                us: ms(&mut rng, 2, 20),
+                count: rng.gen_range(10..=400),
+                seed: rng.gen(),
+            },
+            36..=41 => Event::Glitch {
+                after_us: rng.gen_range(0..5_000),
+                len_bits: rng.gen_range(1..=2),
+            },
+            42..=46 => Event::CablePull {
+                us: ms(&mut rng, 1, 600),
+            },
+            47..=52 => Event::MasterAway {
+                us: ms(&mut rng, 1, 600),
+            },
+            53..=57 => Event::SecondMaster,
+            58..=65 => Event::SetPrm {
+                ppo: Ppo::ALL[rng.gen_range(0..Ppo::ALL.len())],
+                fail_safe: [
+                    FailSafeMode::Stop,
+                    FailSafeMode::LastSpeed,
+                    FailSafeMode::UseFailSafeValues,
+                ][rng.gen_range(0..3)],
+                watchdog_ms: [50, 100, 200, 500][rng.gen_range(0..4)],
+            },
+            66..=70 => Event::PlcStop,
+            71..=76 => Event::PowerCycle {
+                after_us: rng.gen_range(0..20_000),
+            },
+            77..=81 => Event::DriveFault,
+            82..=88 => Event::DriveLink {
+                fault: [
+                    LinkFault::Disconnected,
+                    LinkFault::NoAnswer,
+                    LinkFault::CrcError,
+                    LinkFault::Noise,
+                ][rng.gen_range(0..4)],
+                us: ms(&mut rng, 10, 500),
+            },
+            _ if !plan.ppo.has_pkw() => Event::Steady {
+                frequency: rng.gen_range(1..=50) * 100,
+                us: ms(&mut rng, 5, 60),
+            },
+            _ => {
+                // Seed 000's answers, as the drive scenario proves them one by one.
+                let ramp = rng.gen_range(1..=600);
+                match rng.gen_range(0..4) {
+                    0 => Event::Pkw {
+                        task: Task::Write,
+                        code: ACCEL_TIME,
+                        value: ramp,
+                        want: Some((ReplyId::Value, ramp)),
+                    },
+                    1 => Event::Pkw {
+                        task: Task::Read,
+                        code: 0xF058,
+                        value: 0,
+                        want: Some((ReplyId::Refused, 0x02)),
+                    },
+                    2 => Event::Pkw {
+                        task: Task::Write,
+                        code: SET_FREQUENCY,
+                        value: 9000,
+                        want: Some((ReplyId::Refused, 0x03)),
+                    },
+                    _ => Event::Pkw {
+                        task: Task::Write,
+                        code: 0xD000,
+                        value: 1,
+                        want: Some((ReplyId::Refused, 0x11)),
+                    },
+                }
+            }
+        }
+    }
+}
+
+/// Why an event ended early.
+enum Stop {
+    Violation(String),
+}
+
+impl From<io::Error> for Stop {
+    fn from(e: io::Error) -> Stop {
+        Stop::Violation(format!("the firmware stopped answering: {e}"))
+    }
+}
+
+type Step = Result<(), Stop>;
+
+fn violation<T>(what: impl Into<String>) -> Result<T, Stop> {
+    Err(Stop::Violation(what.into()))
+}
+
+/// A campaign under way.
+pub struct Soak<F: Firmware> {
+    pub sim: CoSim<F>,
+    plan: Plan,
+    /// The set frequency the master sends, and every one any master sent.
+    frequency: u16,
+    sent: BTreeSet<u16>,
+    /// The data exchange cycles the inputs were last looked at.
+    inputs_seen_at: u64,
+    /// The lock the invariants last saw.
+    lock_seen: Option<Baud>,
+    checked: u64,
+    history: VecDeque<String>,
+}
+
+impl<F: Firmware> Soak<F> {
+    /// Powers the board up (switch at [`SWITCH_ADDRESS`], empty storage) around `firmware`.
+    pub fn new(firmware: F) -> io::Result<Soak<F>> {
+        let mut sim = CoSim::new(firmware, SWITCH_ADDRESS, None)?;
+        // Noise draws trials at other rates now and then; the soak counts them, it keeps no
+        // golden file of events.
+        sim.log_failed_trials = false;
+        Ok(Soak {
+            sim,
+            plan: Plan {
+                baud: Baud::B1500000,
+                ppo: Ppo::Ppo1,
+                fail_safe: FailSafeMode::Stop,
+                watchdog_ms: 200,
+            },
+            frequency: 100,
+            sent: BTreeSet::from([0, FAIL_SAFE_FREQUENCY]),
+            inputs_seen_at: 0,
+            lock_seen: None,
+            checked: 0,
+            history: VecDeque::new(),
+        })
+    }
+
+    /// Runs the campaign of `options`.
+    pub fn run(mut self, options: &Options) -> io::Result<(Summary, F)> {
+        let mut kinds = std::collections::BTreeMap::new();
+        let mut events = 0;
+        let mut outcome = self.start();
+        while outcome.is_ok()
+            && events < options.events
+            && options
+                .deadline
+                .is_none_or(|d| std::time::Instant::now() < d)
+        {
+            let event = Event::draw(options.seed, events, &self.plan);
+            *kinds.entry(event.kind()).or_insert(0) += 1;
+            if let Some((from, path)) = &options.trace_from {
+                if events == *from {
+                    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+                    self.sim.tracer = Some(dp_phy::trace::Tracer::new(
+                        file,
+                        crate::cosim::CLOCK_HZ,
+                        "adapter",
+                    )?);
+                }
+            }
+            self.remember(format!(
+                "#{events} at {:.6} s: {event:?}",
+                self.sim.now_us() as f64 / 1e6
+            ));
+            outcome = self.event(&event).and_then(|()| self.recover());
+            events += 1;
+        }
+        if outcome.is_ok() {
+            outcome = self.check_stack();
+        }
+        if let Some(tracer) = &mut self.sim.tracer {
+            tracer.flush()?;
+        }
+        let violation = match outcome {
+            Ok(()) => None,
+            Err(Stop::Violation(what)) => Some(Violation {
+                event: events.saturating_sub(1),
+                what: format!("{what}; {}", self.bus_state()),
+                last_events: self.history.iter().cloned().collect(),
+                adapter_events: self
+                    .sim
+                    .events()
+                    .iter()
+                    .rev()
+                    .take(HISTORY)
+                    .rev()
+                    .cloned()
+                    .collect(),
+            }),
+        };
+        let summary = Summary {
+            seed: options.seed,
+            events,
+            simulated_us: self.sim.now_us(),
+            invariants_checked: self.checked,
+            violation,
+            kinds,
+        };
+        Ok((summary, self.sim.bridge.firmware))
+    }
+
+    /// The bus as a violation leaves it: the adapter's lock and driver, the slave's state,
+    /// the master's view.
+    fn bus_state(&mut self) -> String {
+        let master = self.sim.master.as_mut().map(|m| {
+            let running = m.running();
+            format!(
+                "master at {} running {} cycles {} sending {} char errors {}",
+                m.setup.baud,
+                running,
+                m.cycles,
+                !m.phy.tx.done(),
+                m.phy.char_errors
+            )
+        });
+        format!(
+            "adapter {:?} driving {:?} telegrams bad {} answered {}, slave {:?}, {}",
+            self.sim.adapter.baud_state(),
+            self.sim.adapter.drive(),
+            self.sim.figures.bad_telegrams,
+            self.sim.figures.responses,
+            self.sim.bridge.status.state,
+            master.unwrap_or_else(|| "no master".into())
+        )
+    }
+
+    fn remember(&mut self, line: String) {
+        if self.history.len() == HISTORY {
+            self.history.pop_front();
+        }
+        self.history.push_back(line);
+    }
+
+    fn check(&mut self, ok: bool, what: impl FnOnce(&Self) -> String) -> Step {
+        self.checked += 1;
+        if ok {
+            Ok(())
+        } else {
+            violation(what(self))
+        }
+    }
+
+    /// The master of the plan starts, and the adapter is brought to data exchange.
+    fn start(&mut self) -> Step {
+        self.start_master();
+        self.recover()
+    }
+
+    fn start_master(&mut self) {
+        self.sim.start_master(self.plan.setup());
+        if let Some(m) = self.sim.master.as_mut() {
+            m.program = Program::Manual;
+        }
+        self.put_outputs(RUN);
+    }
+
+    /// The master's outputs: `control` and the set frequency, the rest zero.
+    fn put_outputs(&mut self, control: u16) {
+        let at = self.plan.pzd_at() * 2;
+        let frequency = self.frequency;
+        self.sent.insert(frequency);
+        if let Some(m) = self.sim.master.as_mut() {
+            m.outputs.fill(0);
+            m.outputs[at..at + 2].copy_from_slice(&control.to_be_bytes());
+            m.outputs[at + 2..at + 4].copy_from_slice(&frequency.to_be_bytes());
+        }
+    }
+
+    fn inputs(&self) -> Vec<u16> {
+        self.sim
+            .master
+            .as_ref()
+            .map_or(Vec::new(), |m| scenarios::words(&m.inputs))
+    }
+
+    fn clocks_per_bit(&self) -> Tick {
+        dp_phy::BitTiming::new(crate::cosim::CLOCK_HZ, self.plan.baud, 0).clocks_per_bit()
+    }
+
+    fn cycles(&self) -> u64 {
+        self.sim.master.as_ref().map_or(0, |m| m.cycles)
+    }
+
+    /// Runs `us` of bus time, looking at the invariants every millisecond.
+    fn run_for(&mut self, us: u64) -> Step {
+        let end = self.sim.now + us * TICKS_PER_US;
+        while self.sim.now < end {
+            let slice = (end - self.sim.now).min(WATCH_US * TICKS_PER_US);
+            self.sim.run_for_us(slice.div_ceil(TICKS_PER_US))?;
+            self.watch()?;
+        }
+        Ok(())
+    }
+
+    /// Runs until `done` holds (looked at every millisecond), at most `limit_us`; whether it
+    /// held.
+    fn run_until(&mut self, limit_us: u64, mut done: impl FnMut(&mut Self) -> bool) -> Result<bool, Stop> {
+        let end = self.sim.now + limit_us * TICKS_PER_US;
+        loop {
+            if done(self) {
+                return Ok(true);
+            }
+            if self.sim.now >= end {
+                return Ok(false);
+            }
+            self.run_for(WATCH_US)?;
+        }
+    }
+
+    /// The invariants that hold at every moment.
+    fn watch(&mut self) -> Step {
+        let f = &self.sim.figures;
+        let (late, corrupt) = (f.late_responses, f.corrupt_delivered);
+        self.check(late == 0, |_| {
+            format!("a response started later than MaxTsdr ({late})")
+        })?;
+        self.check(corrupt == 0, |_| {
+            "the transceiver delivered a telegram the master did not send".into()
+        })?;
+        let malformed = self.sim.bridge.status.malformed_telegrams;
+        self.check(malformed == 0, |_| {
+            format!("the firmware got {malformed} malformed telegrams")
+        })?;
+        let collisions = self.sim.bus.collisions;
+        self.check(collisions == 0, |_| {
+            format!("two stations drove the line ({collisions})")
+        })?;
+        // A new lock is at the rate of the master on the line, and at none without one.
+        if let BaudState::Locked(b) = self.sim.adapter.baud_state() {
+            if self.lock_seen != Some(b) {
+                let master = self.sim.master.as_ref().map(|m| m.setup.baud);
+                self.check(master == Some(b), |_| {
+                    format!("a false lock: at {b} with the master at {master:?}")
+                })?;
+            }
+            self.lock_seen = Some(b);
+        }
+        // Every input the master reads carries a set frequency some master sent (or the
+        // fail-safe one): never a value that came from nowhere.
+        let cycles = self.cycles();
+        if cycles != self.inputs_seen_at {
+            self.inputs_seen_at = cycles;
+            let at = self.plan.pzd_at();
+            if let Some(&pzd2) = self.inputs().get(at + 1) {
+                let known = self.sent.contains(&pzd2);
+                self.check(known, |_| {
+                    format!("the inputs' PZD2 is {pzd2}, a set frequency no master sent")
+                })?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The adapter's stack at its deepest stayed clear of the statics (under QEMU).
+    fn check_stack(&mut self) -> Step {
+        if let Some(p) = self.sim.bridge.firmware.stack_peak()? {
+            self.check(p.used_bytes < p.room_bytes, |_| {
+                format!(
+                    "the stack ran into the statics: {} of the {} B above them",
+                    p.used_bytes, p.room_bytes
+                )
+            })?;
+        }
+        Ok(())
+    }
+
+    /// After every event: a master at the plan's rate brings the adapter back to data
+    /// exchange within its bound, and a new set frequency goes to the drive and comes back
+    /// in the inputs within its bound (no state is stuck).
+    fn recover(&mut self) -> Step {
+        if self.sim.master.is_none() {
+            self.start_master();
+        }
+        let baud = self.plan.baud;
+        // Parameterisation may wait for the baud watchdog (a rate change the adapter missed)
+        // and the DP watchdog: the scenarios' limit, plus both.
+        let bound_us = scenarios::limit_us(baud) + 2_000_000 + self.plan.watchdog_ms * 1_000;
+        let start = self.cycles();
+        let ok = self.run_until(bound_us, |s| {
+            let running = s.sim.master.as_mut().is_some_and(|m| m.running());
+            running && s.cycles() >= start + 3
+        })?;
+        self.check(ok, |_| {
+            format!("no data exchange at {baud} within {} ms", bound_us / 1000)
+        })?;
+        self.new_frequency(self.frequency % 4900 + 100)?;
+        Ok(())
+    }
+
+    /// The master sends `frequency`; the inputs must carry it back through the drive within
+    /// 200 ms and 10 data exchange cycles (whichever is later).
+    fn new_frequency(&mut self, frequency: u16) -> Step {
+        self.frequency = frequency;
+        self.sent.insert(frequency);
+        self.put_outputs(RUN);
+        let (t0, c0) = (self.sim.now_us(), self.cycles());
+        let at = self.plan.pzd_at();
+        loop {
+            if self.inputs().get(at + 1) == Some(&frequency) {
+                return Ok(());
+            }
+            let late = self.sim.now_us() >= t0 + 200_000 && self.cycles() >= c0 + 10;
+            let running = self.sim.master.as_mut().is_some_and(|m| m.running());
+            self.check(!late && running, |s| {
+                format!(
+                    "set frequency {frequency} did not come back through the drive in {} ms, {} cycles (inputs {:04X?})",
+                    (s.sim.now_us() - t0) / 1000,
+                    s.cycles() - c0,
+                    s.inputs()
+                )
+            })?;
+            self.run_for(WATCH_US)?;
+        }
+    }
+
+    fn event(&mut self, event: &Event) -> Step {
+        match *event {
+            Event::Steady { frequency, us } => {
+                self.new_frequency(frequency)?;
+                self.run_for(us)
+            }
+            Event::RateChange(baud) => {
+                self.plan.baud = baud;
+                self.start_master();
+                Ok(())
+            }
+            Event::NoiseBurst { us, count, seed } => {
+                let from = self.sim.now;
+                let to = from + us * TICKS_PER_US;
+                let bit = self.clocks_per_bit();
+                self.sim.bus.faults.glitches(seed, from, to, count, 2 * bit);
+                self.run_for(us)
+            }
+            Event::Glitch { after_us, len_bits } => {
+                let bit = self.clocks_per_bit();
+                self.sim.bus.faults.add(FaultWindow {
+                    start: self.sim.now + after_us * TICKS_PER_US,
+                    len: len_bits * bit,
+                    fault: LineFault::Invert,
+                });
+                self.run_for(after_us + 1_000)
+            }
+            Event::CablePull { us } => {
+                self.sim.bus.faults.add(FaultWindow {
+                    start: self.sim.now,
+                    len: us * TICKS_PER_US,
+                    fault: LineFault::Stuck(true),
+                });
+                self.silence(us)
+            }
+            Event::MasterAway { us } => {
+                self.sim.stop_master();
+                self.silence(us)
+            }
+            Event::SecondMaster => {
+                let master = self.take_master_on_a_quiet_line()?;
+                let mut c = Checks::default();
+                scenarios::probe_services(&mut self.sim, &mut c, self.plan.baud)?;
+                self.sim.master = master;
+                for (what, ok) in c.0 {
+                    self.check(ok, |_| format!("a second master's request: {what}"))?;
+                }
+                Ok(())
+            }
+            Event::SetPrm {
+                ppo,
+                fail_safe,
+                watchdog_ms,
+            } => {
+                self.plan = Plan {
+                    ppo,
+                    fail_safe,
+                    watchdog_ms,
+                    ..self.plan
+                };
+                self.start_master();
+                Ok(())
+            }
+            Event::PlcStop => self.plc_stop(),
+            Event::PowerCycle { after_us } => {
+                self.run_for(after_us)?;
+                let before = self.sim.bridge.stored()?;
+                self.sim.power_cycle()?;
+                let after = self.sim.bridge.stored()?;
+                self.check(after == before, |_| {
+                    format!("the storage changed over a power cycle: {before:?} -> {after:?}")
+                })?;
+                let address = self.sim.bridge.status.address;
+                self.check(address == SWITCH_ADDRESS, |_| {
+                    format!("after a power cycle the adapter is at address {address}")
+                })
+            }
+            Event::DriveFault => self.drive_fault(),
+            Event::DriveLink { fault, us } => self.drive_link(fault, us),
+            Event::Pkw {
+                task,
+                code,
+                value,
+                want,
+            } => self.pkw(task, code, value, want),
+        }
+    }
+
+    /// No telegram reaches the adapter for `us`: past the DP watchdog, the drive must get the
+    /// fail-safe within the watchdog's time (and a margin for profirust's rounding of it and
+    /// the drive link's cycle).
+    fn silence(&mut self, us: u64) -> Step {
+        let fail_safes = self.sim.bridge.status.fail_safes;
+        let watchdog_us = self.plan.watchdog_ms * 1_000;
+        let bound_us = watchdog_us + watchdog_us / 10 + 20_000;
+        if us <= bound_us {
+            return self.run_for(us);
+        }
+        let t0 = self.sim.now_us();
+        let applied = self.run_until(bound_us, |s| s.sim.bridge.status.fail_safes > fail_safes)?;
+        self.check(applied, |s| {
+            format!(
+                "no fail-safe within {} ms of the master's silence (watchdog {} ms)",
+                bound_us / 1000,
+                s.plan.watchdog_ms
+            )
+        })?;
+        self.run_for(20_000)?;
+        self.check_fail_safe_drive("the watchdog")?;
+        let spent = self.sim.now_us() - t0;
+        self.run_for(us.saturating_sub(spent))
+    }
+
+    /// What the drive runs with in the plan's fail-safe mode.
+    fn check_fail_safe_drive(&mut self, cause: &str) -> Step {
+        let (mode, frequency) = (self.plan.fail_safe, self.frequency);
+        let d = self.sim.drive_now();
+        let (cw, f) = (
+            d.control_word(),
+            d.read_register(SET_FREQUENCY).unwrap_or(0),
+        );
+        let ok = match mode {
+            FailSafeMode::Stop => cw & control::RUN == 0,
+            FailSafeMode::LastSpeed => cw == RUN && f == frequency,
+            FailSafeMode::UseFailSafeValues => cw == RUN && f == FAIL_SAFE_FREQUENCY,
+        };
+        self.check(ok, |_| {
+            format!("after {cause}, fail-safe {mode:?}: the drive has CW {cw:04X}, F0.29 {f} (last sent {frequency})")
+        })
+    }
+
+    /// The master steps aside for a tool (a second master) once neither it nor the adapter
+    /// drives the line: as a master passes the token, not in the middle of a telegram.
+    fn take_master_on_a_quiet_line(&mut self) -> Result<Option<crate::cosim::Master>, Stop> {
+        let end = self.sim.now + 1_000_000 * TICKS_PER_US;
+        self.sim.run_until(end, |s| {
+            s.adapter.drive().is_none() && s.master.as_ref().is_none_or(|m| m.phy.tx.done())
+        })?;
+        Ok(self.sim.take_master())
+    }
+
+    fn plc_stop(&mut self) -> Step {
+        let Some(master) = self.take_master_on_a_quiet_line()? else {
+            return Ok(());
+        };
+        let fail_safes = self.sim.bridge.status.fail_safes;
+        scenarios::plc_stop(&mut self.sim, &master.setup)?;
+        let applied = self.run_until(20_000, |s| s.sim.bridge.status.fail_safes > fail_safes)?;
+        self.check(applied, |_| "no fail-safe within 20 ms of a PLC stop".into())?;
+        self.run_for(20_000)?;
+        self.check_fail_safe_drive("a PLC stop")
+    }
+
+    fn drive_fault(&mut self) -> Step {
+        let at = self.plan.pzd_at();
+        self.sim.drive_now().inject_fault(12);
+        let faulted = self.run_until(100_000, |s| {
+            s.inputs().get(at).is_some_and(|w| w & status::FAULT != 0)
+        })?;
+        self.check(faulted, |s| {
+            format!("a drive fault not in the status word within 100 ms ({:04X?})", s.inputs())
+        })?;
+        self.put_outputs(RUN | control::FAULT_RESET);
+        let reset = self.run_until(100_000, |s| {
+            s.inputs().get(at).is_some_and(|w| w & status::FAULT == 0)
+                && s.sim.drive_now().fault().is_none()
+        })?;
+        self.check(reset, |_| "the fault reset did not clear the fault in 100 ms".into())?;
+        self.put_outputs(RUN);
+        Ok(())
+    }
+
+    fn drive_link(&mut self, fault: LinkFault, us: u64) -> Step {
+        let at = self.plan.pzd_at();
+        let t0 = self.sim.now_us();
+        self.sim.drive_now().link_fault = fault;
+        // Seed 000: PZD1 in is C0xxh while the link is down (after its retries).
+        let shown = self.run_until(us, |s| {
+            s.inputs().get(at).is_some_and(|w| w & 0xFF00 == 0xC000)
+        })?;
+        let noisy_or_short = fault == LinkFault::Noise || us < 100_000;
+        self.check(shown || noisy_or_short, |_| {
+            format!("the drive link {fault:?} for {} ms, never shown in PZD1", us / 1000)
+        })?;
+        let spent = self.sim.now_us() - t0;
+        self.run_for(us.saturating_sub(spent))?;
+        self.sim.drive_now().link_fault = LinkFault::None;
+        Ok(())
+    }
+
+    fn pkw(&mut self, task: Task, code: u16, value: u16, want: Option<(ReplyId, u16)>) -> Step {
+        let request = scenarios::vendor_request(task, code, value);
+        let put = |s: &mut Self, pkw: [u16; 4]| {
+            if let Some(m) = s.sim.master.as_mut() {
+                for (i, w) in pkw.iter().enumerate() {
+                    m.outputs[2 * i..2 * i + 2].copy_from_slice(&w.to_be_bytes());
+                }
+            }
+        };
+        put(self, [0; 4]);
+        let cleared = self.run_until(200_000, |s| s.inputs().get(..4) == Some(&[0, 0, 0, 0]))?;
+        self.check(cleared, |_| "the PKW reply did not clear within 200 ms".into())?;
+        put(self, request);
+        let replied = self.run_until(200_000, |s| s.inputs().first().is_some_and(|&w| w != 0))?;
+        let reply = replied.then(|| self.inputs()[..4].to_vec());
+        let got = scenarios::vendor_reply(&reply);
+        self.check(got == want, |_| {
+            format!("PKW {task:?} {code:04X} = {value}: the reply {got:?}, not {want:?}")
+        })?;
+        put(self, [0; 4]);
+        Ok(())
+    }
+}
+
+/// Runs the campaign of `options` around `firmware`.
+pub fn run<F: Firmware>(firmware: F, options: &Options) -> io::Result<(Summary, F)> {
+    Soak::new(firmware)?.run(options)
+}

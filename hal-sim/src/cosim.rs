@@ -562,7 +562,10 @@ impl<F: Firmware> CoSim<F> {
         let collisions = self.bus.collisions;
         let line = self.bus.resolve(self.now, [master_drive, adapter_drive]);
         if collisions == 0 && self.bus.collisions > 0 {
-            let telegram = self.master.as_ref().and_then(|m| m.phy.recent.back().cloned());
+            let telegram = self
+                .master
+                .as_ref()
+                .and_then(|m| m.phy.recent.back().cloned());
             self.event(format!(
                 "collision at {} us: the master (its last telegram {telegram:02X?}) and the adapter drove the line",
                 self.now_us()

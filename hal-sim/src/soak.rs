@@ -82,6 +82,9 @@ pub struct Summary {
     pub violation: Option<Violation>,
     /// Each kind of event and how often it ran.
     pub kinds: std::collections::BTreeMap<&'static str, u64>,
+    /// ERROR lines of the firmware's log (a panic, a HardFault), each a violation: found
+    /// after the run, where the log is decoded (xtask).
+    pub firmware_errors: Vec<String>,
 }
 
 impl Summary {
@@ -93,8 +96,13 @@ impl Summary {
             self.events,
             self.simulated_us as f64 / 1e6,
             self.invariants_checked,
-            usize::from(self.violation.is_some())
+            self.violations()
         )
+    }
+
+    /// The violation that ended the run, if any, and the firmware's ERROR lines.
+    pub fn violations(&self) -> usize {
+        usize::from(self.violation.is_some()) + self.firmware_errors.len()
     }
 }
 
@@ -393,6 +401,7 @@ impl<F: Firmware> Soak<F> {
             invariants_checked: self.checked,
             violation,
             kinds,
+            firmware_errors: Vec::new(),
         };
         Ok((summary, self.sim.bridge.firmware))
     }
@@ -492,7 +501,11 @@ impl<F: Firmware> Soak<F> {
 
     /// Runs until `done` holds (looked at every millisecond), at most `limit_us`; whether it
     /// held.
-    fn run_until(&mut self, limit_us: u64, mut done: impl FnMut(&mut Self) -> bool) -> Result<bool, Stop> {
+    fn run_until(
+        &mut self,
+        limit_us: u64,
+        mut done: impl FnMut(&mut Self) -> bool,
+    ) -> Result<bool, Stop> {
         let end = self.sim.now + limit_us * TICKS_PER_US;
         loop {
             if done(self) {
@@ -759,7 +772,9 @@ impl<F: Firmware> Soak<F> {
         let fail_safes = self.sim.bridge.status.fail_safes;
         scenarios::plc_stop(&mut self.sim, &master.setup)?;
         let applied = self.run_until(20_000, |s| s.sim.bridge.status.fail_safes > fail_safes)?;
-        self.check(applied, |_| "no fail-safe within 20 ms of a PLC stop".into())?;
+        self.check(applied, |_| {
+            "no fail-safe within 20 ms of a PLC stop".into()
+        })?;
         self.run_for(20_000)?;
         self.check_fail_safe_drive("a PLC stop")
     }
@@ -771,14 +786,19 @@ impl<F: Firmware> Soak<F> {
             s.inputs().get(at).is_some_and(|w| w & status::FAULT != 0)
         })?;
         self.check(faulted, |s| {
-            format!("a drive fault not in the status word within 100 ms ({:04X?})", s.inputs())
+            format!(
+                "a drive fault not in the status word within 100 ms ({:04X?})",
+                s.inputs()
+            )
         })?;
         self.put_outputs(RUN | control::FAULT_RESET);
         let reset = self.run_until(100_000, |s| {
             s.inputs().get(at).is_some_and(|w| w & status::FAULT == 0)
                 && s.sim.drive_now().fault().is_none()
         })?;
-        self.check(reset, |_| "the fault reset did not clear the fault in 100 ms".into())?;
+        self.check(reset, |_| {
+            "the fault reset did not clear the fault in 100 ms".into()
+        })?;
         self.put_outputs(RUN);
         Ok(())
     }
@@ -793,7 +813,10 @@ impl<F: Firmware> Soak<F> {
         })?;
         let noisy_or_short = fault == LinkFault::Noise || us < 100_000;
         self.check(shown || noisy_or_short, |_| {
-            format!("the drive link {fault:?} for {} ms, never shown in PZD1", us / 1000)
+            format!(
+                "the drive link {fault:?} for {} ms, never shown in PZD1",
+                us / 1000
+            )
         })?;
         let spent = self.sim.now_us() - t0;
         self.run_for(us.saturating_sub(spent))?;
@@ -812,7 +835,9 @@ impl<F: Firmware> Soak<F> {
         };
         put(self, [0; 4]);
         let cleared = self.run_until(200_000, |s| s.inputs().get(..4) == Some(&[0, 0, 0, 0]))?;
-        self.check(cleared, |_| "the PKW reply did not clear within 200 ms".into())?;
+        self.check(cleared, |_| {
+            "the PKW reply did not clear within 200 ms".into()
+        })?;
         put(self, request);
         let replied = self.run_until(200_000, |s| s.inputs().first().is_some_and(|&w| w != 0))?;
         let reply = replied.then(|| self.inputs()[..4].to_vec());

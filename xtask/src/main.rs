@@ -18,6 +18,9 @@
 //!   clock, under Verilator.
 //! - `gateware`: the blocks synthesised for the production board's FPGA and the search placed
 //!   and routed on it (yosys and nextpnr-ice40 from PyPI).
+//! - `soak [--seed S] [--minutes M] [--events N] [--in-process] [--trace-from K] [--broken
+//!   fail-safe]`: a seeded random schedule of everything the scenarios do, on the firmware
+//!   under QEMU, with invariants checked as it runs.
 
 mod baud_sweep;
 mod dist;
@@ -30,6 +33,7 @@ mod pty_check;
 mod qemu_run;
 mod qemu_test;
 mod rtl_check;
+mod soak;
 
 use anyhow::{bail, Result};
 use std::path::PathBuf;
@@ -45,7 +49,7 @@ fn try_main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some((task, rest)) = args.split_first() else {
         bail!(
-            "usage: cargo xtask <qemu-test|qemu-run|flash|dist|clippy-firmware|baud-sweep|phy-bench|dp-cycle|gsd|rtl-check|gateware> [options]"
+            "usage: cargo xtask <qemu-test|qemu-run|flash|dist|clippy-firmware|baud-sweep|phy-bench|dp-cycle|gsd|rtl-check|gateware|soak> [options]"
         );
     };
     match task.as_str() {
@@ -60,9 +64,10 @@ fn try_main() -> Result<()> {
         "clippy-firmware" => qemu_test::clippy_firmware(rest),
         "rtl-check" => rtl_check::run(rest),
         "gateware" => gateware::run(rest),
+        "soak" => soak::run(rest),
         other => bail!(
             "unknown task `{other}`: qemu-test, qemu-run, flash, dist, clippy-firmware, \
-             baud-sweep, phy-bench, dp-cycle, gsd, rtl-check or gateware"
+             baud-sweep, phy-bench, dp-cycle, gsd, rtl-check, gateware or soak"
         ),
     }
 }

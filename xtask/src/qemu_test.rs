@@ -33,7 +33,7 @@ const SELFTESTS: [(&str, &str); 3] = [
 /// features it adds (a self-test).
 pub(crate) struct Image {
     pub(crate) board: &'static board::Board,
-    extra_feature: Option<&'static str>,
+    pub(crate) extra_feature: Option<&'static str>,
 }
 
 impl Image {

@@ -14,9 +14,9 @@ mod dpv1;
 mod drive;
 mod support;
 
-pub use support::{Checks, Report, SWITCH_ADDRESS};
 pub(crate) use drive::{plc_stop, vendor_reply, vendor_request, words};
 pub(crate) use support::{limit_us, probe_services};
+pub use support::{Checks, Report, SWITCH_ADDRESS};
 
 use crate::cosim::{CoSim, Figures, Program};
 use crate::firmware::Firmware;

@@ -267,6 +267,12 @@ pub struct Figures {
     /// Telegrams the transceiver delivered as good that the station on the line did not send
     /// (noise made into a telegram, or one corrupted past its checks): never allowed.
     pub corrupt_delivered: u64,
+    /// The first of them, for the report.
+    pub first_corrupt: Option<Vec<u8>>,
+    /// Tokens (SD4) delivered that no station sent. A token has no FCS, only each
+    /// character's parity, which a glitch over two adjacent bits keeps (02h read as 04h): no
+    /// receiver can tell, and the adapter, a slave, takes no token. Counted, not a failure.
+    pub corrupt_tokens: u64,
     /// Trials from a lock that failed back to it, while they go unlogged
     /// (`CoSim::log_failed_trials`).
     pub trials_failed_back: u64,
@@ -475,6 +481,11 @@ impl<F: Firmware> CoSim<F> {
         self.remember_echo();
         self.retire_telegrams();
         self.master = None;
+    }
+
+    /// Whether the transceiver holds an answer it has not started yet.
+    pub fn response_pending(&self) -> bool {
+        self.pending.is_some()
     }
 
     /// Takes the master off the bus, to be put back later (a tool steps in meanwhile).
@@ -707,7 +718,8 @@ impl<F: Firmware> CoSim<F> {
         let Some(timing) = self.adapter.timing() else {
             return;
         };
-        let bits = (self.now - request_end) / timing.clocks_per_bit().max(1);
+        let cpb = timing.clocks_per_bit().max(1);
+        let bits = (self.now - request_end) / cpb;
         let baud = self.adapter.baud_state().baud();
         if bits > self.figures.worst_tsdr_bits {
             self.figures.worst_tsdr_bits = bits;
@@ -717,8 +729,15 @@ impl<F: Firmware> CoSim<F> {
             let worst = self.figures.worst_tsdr_by_rate.entry(b).or_default();
             *worst = (*worst).max(bits);
         }
+        // The answer is due MaxTsdr after the request; where a fault hit the line after the
+        // request, MaxTsdr after the character it may have started (a receiver reads a low
+        // glitch as a start bit, to that character's end), as for any station on the line.
+        let due = match self.bus.faults.disturbed_until(self.now) {
+            Some(until) if until > request_end => until + u64::from(dp_consts::BITS_PER_CHAR) * cpb,
+            _ => request_end,
+        };
         if let Some(b) = baud {
-            if bits > u64::from(b.adapter_max_tsdr_bits()) {
+            if self.now.saturating_sub(due) / cpb > u64::from(b.adapter_max_tsdr_bits()) {
                 self.figures.late_responses += 1;
             }
         }
@@ -730,8 +749,13 @@ impl<F: Firmware> CoSim<F> {
             self.figures.bad_telegrams += 1;
             return Ok(());
         }
-        if !self.sent_lately(t.bytes()) {
+        if !self.sent_lately(t.bytes()) && t.bytes().first() == Some(&dp_consts::SD4) {
+            self.figures.corrupt_tokens += 1;
+        } else if !self.sent_lately(t.bytes()) {
             self.figures.corrupt_delivered += 1;
+            if self.figures.first_corrupt.is_none() {
+                self.figures.first_corrupt = Some(t.bytes().to_vec());
+            }
         }
         if self.figures.lost_before_lock.is_none() {
             let sent = self.master.as_ref().map_or(1, |m| m.phy.telegrams_sent);

@@ -525,8 +525,12 @@ impl<F: Firmware> Soak<F> {
         self.check(late == 0, |_| {
             format!("a response started later than MaxTsdr ({late})")
         })?;
-        self.check(corrupt == 0, |_| {
-            "the transceiver delivered a telegram the master did not send".into()
+        self.check(corrupt == 0, |s| {
+            let sent = s.sim.master.as_ref().map(|m| m.phy.recent.clone());
+            format!(
+                "the transceiver delivered a telegram no station sent: {:02X?} (the master's last: {sent:02X?})",
+                s.sim.figures.first_corrupt
+            )
         })?;
         let malformed = self.sim.bridge.status.malformed_telegrams;
         self.check(malformed == 0, |_| {
@@ -755,13 +759,20 @@ impl<F: Firmware> Soak<F> {
         })
     }
 
-    /// The master steps aside for a tool (a second master) once neither it nor the adapter
-    /// drives the line: as a master passes the token, not in the middle of a telegram.
+    /// The master steps aside for a tool (a second master) once its last request has had its
+    /// answer: the line idle for MaxTsdr and two bits after it, nothing on its way out, as a
+    /// master passes the token, not between a request and its answer.
     fn take_master_on_a_quiet_line(&mut self) -> Result<Option<crate::cosim::Master>, Stop> {
         let end = self.sim.now + 1_000_000 * TICKS_PER_US;
-        self.sim.run_until(end, |s| {
-            s.adapter.drive().is_none() && s.master.as_ref().is_none_or(|m| m.phy.tx.done())
+        let quiet_bits = u64::from(self.plan.baud.adapter_max_tsdr_bits()) + 2;
+        let quiet = quiet_bits * self.clocks_per_bit();
+        let taken = self.sim.run_until(end, |s| {
+            let master_quiet = s.master.as_ref().is_none_or(|m| {
+                m.phy.tx.done() && s.now.saturating_sub(m.phy.last_activity) >= quiet
+            });
+            master_quiet && s.adapter.drive().is_none() && !s.response_pending()
         })?;
+        self.check(taken, |_| "the line was never quiet for a second master in 1 s".into())?;
         Ok(self.sim.take_master())
     }
 

@@ -117,6 +117,14 @@ impl FaultInjector {
         line
     }
 
+    /// The end of the last fault that began before `now` (clipped to `now`): where the line
+    /// was last disturbed by a fault, if ever.
+    pub fn disturbed_until(&self, now: Tick) -> Option<Tick> {
+        let before = self.windows.partition_point(|w| w.start < now);
+        let w = self.windows.get(before.checked_sub(1)?)?;
+        Some((w.start + w.len).min(now))
+    }
+
     /// Ticks from `now` before the faults change anything.
     pub fn quiet_for(&self, now: Tick) -> Tick {
         match self.windows[self.cursor.min(self.windows.len())..]

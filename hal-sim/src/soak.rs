@@ -772,7 +772,9 @@ impl<F: Firmware> Soak<F> {
             });
             master_quiet && s.adapter.drive().is_none() && !s.response_pending()
         })?;
-        self.check(taken, |_| "the line was never quiet for a second master in 1 s".into())?;
+        self.check(taken, |_| {
+            "the line was never quiet for a second master in 1 s".into()
+        })?;
         Ok(self.sim.take_master())
     }
 

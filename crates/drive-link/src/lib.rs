@@ -323,7 +323,18 @@ impl<U: Read<u8> + Write<u8>> ModbusMaster<U> {
             None
         }?;
         match result {
-            Err(e) if e.is_link_fault() && self.retry() => None,
+            Err(e) if e.is_link_fault() && self.retry() => {
+                // The request goes again now, and its timeout runs from now: a caller that
+                // sleeps until `deadline` must have one (with none, a drive that stopped
+                // answering was never found out while no fieldbus event woke the firmware:
+                // the soak's seed 7, event 113).
+                if self.pump() {
+                    if let Some(pending) = self.pending.as_mut() {
+                        pending.sent_at = Some(now_us);
+                    }
+                }
+                None
+            }
             Err(e) => {
                 self.pending = None;
                 Some(Outcome::Failed(e))

@@ -150,6 +150,36 @@ fn no_answer_times_out_after_the_retries() {
     uart.done();
 }
 
+#[test]
+fn a_retry_has_a_deadline_from_the_moment_it_goes() {
+    let request = with_crc(vec![0x01, 0x03, 0xD0, 0x00, 0x00, 0x01]);
+    let config = Config {
+        timeout_us: 1000,
+        retries: 1,
+    };
+    // Each attempt: stale bytes discarded (none), the request, a read with nothing yet; the
+    // first one a read more, at its timeout.
+    let mut uart = Mock::new(&[
+        would_block(),
+        Transaction::write_many(request.clone()),
+        would_block(),
+        would_block(),
+        would_block(),
+        Transaction::write_many(request),
+        would_block(),
+    ]);
+    let mut master = ModbusMaster::new(uart.clone(), config);
+    master.start(Op::Read(0xD000)).unwrap();
+    assert_eq!(master.poll(0), None);
+    assert_eq!(master.deadline(), Some(1000));
+    // The first attempt times out at 1500 and goes again: its answer is late at 2500, and a
+    // firmware that sleeps until the deadline must be told so.
+    assert_eq!(master.poll(1500), None, "retrying");
+    assert_eq!(master.deadline(), Some(2500));
+    assert_eq!(master.stats.retries, 1);
+    uart.done();
+}
+
 /// A UART wired to the drive simulator: a complete request frame gets the simulator's
 /// answer, readable at once.
 struct SimUart {

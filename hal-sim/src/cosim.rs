@@ -49,6 +49,9 @@ pub struct MasterSetup {
     pub config: Vec<u8>,
     pub user_prm: Vec<u8>,
     pub watchdog_ms: u64,
+    /// Set_Prm asks for Sync and Freeze (Sync_Req, Freeze_Req), which Global_Control then
+    /// commands.
+    pub sync_freeze: bool,
 }
 
 impl MasterSetup {
@@ -62,6 +65,7 @@ impl MasterSetup {
             config: Ppo::Ppo1.cfg().to_vec(),
             user_prm: echo_user_prm().encode().to_vec(),
             watchdog_ms: 200,
+            sync_freeze: false,
         }
     }
 }
@@ -148,6 +152,8 @@ impl Master {
             config: Some(setup.config.clone().leak()),
             max_tsdr: setup.baud.adapter_max_tsdr_bits(),
             fail_safe: true,
+            sync_mode: setup.sync_freeze,
+            freeze_mode: setup.sync_freeze,
             ..Default::default()
         };
         let handle = dp.add(
@@ -492,6 +498,14 @@ impl<F: Firmware> CoSim<F> {
     pub fn take_master(&mut self) -> Option<Master> {
         self.retire_telegrams();
         self.master.take()
+    }
+
+    /// Puts back a master taken off the bus: its PHY counts the line's idle time (TSYN before
+    /// its next telegram) from now, as it would have heard the tool's traffic.
+    pub fn put_master_back(&mut self, mut master: Master) {
+        master.phy.last_activity = self.now;
+        master.phy.now = self.now;
+        self.master = Some(master);
     }
 
     /// Keeps the master's last telegrams, before it is replaced or goes.

@@ -47,6 +47,12 @@ const FAIL_SAFE_FREQUENCY: u16 = 1234;
 /// How many of the last events a violation prints.
 const HISTORY: usize = 12;
 
+/// The data exchange cycles a bound of [`Soak::run_until_cycles`] takes at least.
+const BOUND_CYCLES: u64 = 4;
+
+/// The longest such a bound waits, cycles or not (the master may have lost the slave).
+const BOUND_CAP_US: u64 = 5_000_000;
+
 /// Bus time between two looks at the invariants.
 const WATCH_US: u64 = 1_000;
 
@@ -112,10 +118,30 @@ struct Plan {
     baud: Baud,
     ppo: Ppo,
     fail_safe: FailSafeMode,
+    /// The watchdog the schedule asked for; [`Plan::watchdog_ms`] is the one in force.
     watchdog_ms: u64,
+    /// Set_Prm asks for Sync and Freeze.
+    sync_freeze: bool,
 }
 
+/// The bits of one data exchange cycle of the longest PPO, with the master's token and
+/// FDL_Status polls beside it, rounded up: a watchdog shorter than a few of these cycles expires
+/// between two of them (at 9.6k a PPO5 cycle is about 150 ms), which a configuration tool does
+/// not allow and which would be the soak's error, not the adapter's.
+const CYCLE_BITS: u64 = 3_000;
+
+/// The cycles the watchdog covers at least.
+const WATCHDOG_CYCLES: u64 = 5;
+
 impl Plan {
+    /// The watchdog in force: the one asked for, at least [`WATCHDOG_CYCLES`] cycles of the
+    /// rate (a configuration tool's rule), in whole 10 ms.
+    fn watchdog_ms(&self) -> u64 {
+        let floor_ms =
+            (WATCHDOG_CYCLES * CYCLE_BITS * 1_000).div_ceil(u64::from(self.baud.bits_per_second()));
+        self.watchdog_ms.max(floor_ms.div_ceil(10) * 10)
+    }
+
     fn setup(&self) -> MasterSetup {
         let mut setup = MasterSetup::new(self.baud, SWITCH_ADDRESS);
         setup.config = self.ppo.cfg().to_vec();
@@ -124,7 +150,8 @@ impl Plan {
         prm.fail_safe_pzd[0] = RUN;
         prm.fail_safe_pzd[1] = FAIL_SAFE_FREQUENCY;
         setup.user_prm = prm.encode().to_vec();
-        setup.watchdog_ms = self.watchdog_ms;
+        setup.watchdog_ms = self.watchdog_ms();
+        setup.sync_freeze = self.sync_freeze;
         setup
     }
 
@@ -161,7 +188,11 @@ enum Event {
         ppo: Ppo,
         fail_safe: FailSafeMode,
         watchdog_ms: u64,
+        sync_freeze: bool,
     },
+    /// Global_Control Sync (or Freeze), a new set frequency held (or the inputs frozen), then
+    /// Sync again and Unsync (or Unfreeze); ignored where Set_Prm did not ask for it.
+    SyncFreeze { freeze: bool },
     /// Global_Control Clear_Data (the PLC stopped), then the master starts anew.
     PlcStop,
     /// A power cycle after a while.
@@ -190,6 +221,8 @@ impl Event {
             Event::MasterAway { .. } => "master-away",
             Event::SecondMaster => "second-master",
             Event::SetPrm { .. } => "set-prm",
+            Event::SyncFreeze { freeze: false } => "sync",
+            Event::SyncFreeze { freeze: true } => "freeze",
             Event::PlcStop => "plc-stop",
             Event::PowerCycle { .. } => "power-cycle",
             Event::DriveFault => "drive-fault",
@@ -202,7 +235,7 @@ impl Event {
     fn draw(seed: u64, index: u64, plan: &Plan) -> Event {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let ms = |rng: &mut ChaCha8Rng, lo: u64, hi: u64| rng.gen_range(lo..=hi) * 1_000;
-        match rng.gen_range(0..100) {
+        match rng.gen_range(0..108) {
             0..=19 => Event::Steady {
                 frequency: rng.gen_range(1..=50) * 100,
                 us: ms(&mut rng, 5, 60),
@@ -232,6 +265,7 @@ impl Event {
                     FailSafeMode::UseFailSafeValues,
                 ][rng.gen_range(0..3)],
                 watchdog_ms: [50, 100, 200, 500][rng.gen_range(0..4)],
+                sync_freeze: rng.gen(),
             },
             66..=70 => Event::PlcStop,
             71..=76 => Event::PowerCycle {
@@ -247,6 +281,7 @@ impl Event {
                 ][rng.gen_range(0..4)],
                 us: ms(&mut rng, 10, 500),
             },
+            100..=107 => Event::SyncFreeze { freeze: rng.gen() },
             _ if !plan.ppo.has_pkw() => Event::Steady {
                 frequency: rng.gen_range(1..=50) * 100,
                 us: ms(&mut rng, 5, 60),
@@ -331,6 +366,7 @@ impl<F: Firmware> Soak<F> {
                 ppo: Ppo::Ppo1,
                 fail_safe: FailSafeMode::Stop,
                 watchdog_ms: 200,
+                sync_freeze: false,
             },
             frequency: 100,
             sent: BTreeSet::from([0, FAIL_SAFE_FREQUENCY]),
@@ -518,6 +554,28 @@ impl<F: Firmware> Soak<F> {
         }
     }
 
+    /// Runs until `done` holds, at most until `limit_us` and [`BOUND_CYCLES`] data exchange
+    /// cycles have both passed (the inputs cross the bus once a cycle: at 9.6k a cycle takes
+    /// longer than the drive takes to act), and never past [`BOUND_CAP_US`]; whether it held.
+    fn run_until_cycles(
+        &mut self,
+        limit_us: u64,
+        mut done: impl FnMut(&mut Self) -> bool,
+    ) -> Result<bool, Stop> {
+        let (t0, c0) = (self.sim.now_us(), self.cycles());
+        loop {
+            if done(self) {
+                return Ok(true);
+            }
+            let elapsed = self.sim.now_us() - t0;
+            let bound = elapsed >= limit_us && self.cycles() >= c0 + BOUND_CYCLES;
+            if bound || elapsed >= BOUND_CAP_US {
+                return Ok(false);
+            }
+            self.run_for(WATCH_US)?;
+        }
+    }
+
     /// The invariants that hold at every moment.
     fn watch(&mut self) -> Step {
         let f = &self.sim.figures;
@@ -589,7 +647,7 @@ impl<F: Firmware> Soak<F> {
         let baud = self.plan.baud;
         // Parameterisation may wait for the baud watchdog (a rate change the adapter missed)
         // and the DP watchdog: the scenarios' limit, plus both.
-        let bound_us = scenarios::limit_us(baud) + 2_000_000 + self.plan.watchdog_ms * 1_000;
+        let bound_us = scenarios::limit_us(baud) + 2_000_000 + self.plan.watchdog_ms() * 1_000;
         let start = self.cycles();
         let ok = self.run_until(bound_us, |s| {
             let running = s.sim.master.as_mut().is_some_and(|m| m.running());
@@ -608,6 +666,12 @@ impl<F: Firmware> Soak<F> {
         self.frequency = frequency;
         self.sent.insert(frequency);
         self.put_outputs(RUN);
+        self.frequency_comes_back(frequency)
+    }
+
+    /// The inputs carry `frequency` back through the drive within 200 ms and 10 data exchange
+    /// cycles (whichever is later).
+    fn frequency_comes_back(&mut self, frequency: u16) -> Step {
         let (t0, c0) = (self.sim.now_us(), self.cycles());
         let at = self.plan.pzd_at();
         loop {
@@ -670,8 +734,26 @@ impl<F: Firmware> Soak<F> {
             Event::SecondMaster => {
                 let master = self.take_master_on_a_quiet_line()?;
                 let mut c = Checks::default();
+                let (t0, fail_safes) = (self.sim.now_us(), self.sim.bridge.status.fail_safes);
                 scenarios::probe_services(&mut self.sim, &mut c, self.plan.baud)?;
-                self.sim.master = master;
+                let away_us = self.sim.now_us() - t0;
+                if self.sim.bridge.status.fail_safes > fail_safes {
+                    // The tool held the bus past the master's watchdog (at the slow rates its
+                    // requests take that long): the slave left data exchange, rightly, part
+                    // way through, and the answers are those of whichever state each met.
+                    let due = away_us >= self.plan.watchdog_ms() * 1_000;
+                    c = Checks::default();
+                    c.check(
+                        format!(
+                            "the watchdog expired only past its {} ms",
+                            self.plan.watchdog_ms()
+                        ),
+                        due,
+                    );
+                }
+                if let Some(master) = master {
+                    self.sim.put_master_back(master);
+                }
                 for (what, ok) in c.0 {
                     self.check(ok, |_| format!("a second master's request: {what}"))?;
                 }
@@ -681,17 +763,20 @@ impl<F: Firmware> Soak<F> {
                 ppo,
                 fail_safe,
                 watchdog_ms,
+                sync_freeze,
             } => {
                 self.plan = Plan {
                     ppo,
                     fail_safe,
                     watchdog_ms,
+                    sync_freeze,
                     ..self.plan
                 };
                 self.start_master();
                 Ok(())
             }
             Event::PlcStop => self.plc_stop(),
+            Event::SyncFreeze { freeze } => self.sync_freeze(freeze),
             Event::PowerCycle { after_us } => {
                 self.run_for(after_us)?;
                 let before = self.sim.bridge.stored()?;
@@ -721,7 +806,7 @@ impl<F: Firmware> Soak<F> {
     /// the drive link's cycle).
     fn silence(&mut self, us: u64) -> Step {
         let fail_safes = self.sim.bridge.status.fail_safes;
-        let watchdog_us = self.plan.watchdog_ms * 1_000;
+        let watchdog_us = self.plan.watchdog_ms() * 1_000;
         let bound_us = watchdog_us + watchdog_us / 10 + 20_000;
         if us <= bound_us {
             return self.run_for(us);
@@ -732,7 +817,7 @@ impl<F: Firmware> Soak<F> {
             format!(
                 "no fail-safe within {} ms of the master's silence (watchdog {} ms)",
                 bound_us / 1000,
-                s.plan.watchdog_ms
+                s.plan.watchdog_ms()
             )
         })?;
         self.run_for(20_000)?;
@@ -778,6 +863,72 @@ impl<F: Firmware> Soak<F> {
         Ok(self.sim.take_master())
     }
 
+    /// A Global_Control `command` from the master's address, by a tool while the master
+    /// steps aside.
+    fn global_control(&mut self, command: u8) -> Step {
+        let Some(master) = self.take_master_on_a_quiet_line()? else {
+            return Ok(());
+        };
+        scenarios::global_control(&mut self.sim, &master.setup, command)?;
+        self.sim.put_master_back(master);
+        Ok(())
+    }
+
+    /// Sync holds the outputs the master sends until the next Sync (Unsync lets them go);
+    /// Freeze holds the inputs the master reads until Unfreeze (seed 004's Sync/Freeze; the
+    /// GSD offers both). Either is ignored where Set_Prm did not ask for it.
+    fn sync_freeze(&mut self, freeze: bool) -> Step {
+        use dp_consts::control_command as gc;
+        let old = self.frequency;
+        self.global_control(if freeze { gc::FREEZE } else { gc::SYNC })?;
+        let new = old % 4900 + 100;
+        self.frequency = new;
+        self.sent.insert(new);
+        self.put_outputs(RUN);
+        if !self.plan.sync_freeze {
+            return self.frequency_comes_back(new);
+        }
+        // Held for 10 cycles and 50 ms: the drive keeps the old set frequency under Sync;
+        // the inputs keep it under Freeze, while the drive takes the new one.
+        let at = self.plan.pzd_at();
+        let (t0, c0) = (self.sim.now_us(), self.cycles());
+        loop {
+            let pzd2_in = self.inputs().get(at + 1).copied();
+            let drive = self
+                .sim
+                .drive_now()
+                .read_register(SET_FREQUENCY)
+                .unwrap_or(0);
+            let held = if freeze {
+                pzd2_in == Some(old)
+            } else {
+                drive == old
+            };
+            self.check(held, |_| {
+                format!(
+                    "{} did not hold: the drive has {drive}, the inputs' PZD2 {pzd2_in:?} (old {old}, new {new})",
+                    if freeze { "Freeze" } else { "Sync" }
+                )
+            })?;
+            if self.sim.now_us() >= t0 + 50_000 && self.cycles() >= c0 + 10 {
+                break;
+            }
+            self.run_for(WATCH_US)?;
+        }
+        if freeze {
+            let drive = self.sim.drive_now().read_register(SET_FREQUENCY).ok();
+            self.check(drive == Some(new), |_| {
+                format!("under Freeze the outputs stopped: the drive has {drive:?}, not {new}")
+            })?;
+            self.global_control(gc::UNFREEZE)?;
+        } else {
+            // The next Sync lets the held outputs go, then Unsync ends the mode.
+            self.global_control(gc::SYNC)?;
+            self.global_control(gc::UNSYNC)?;
+        }
+        self.frequency_comes_back(new)
+    }
+
     fn plc_stop(&mut self) -> Step {
         let Some(master) = self.take_master_on_a_quiet_line()? else {
             return Ok(());
@@ -795,22 +946,22 @@ impl<F: Firmware> Soak<F> {
     fn drive_fault(&mut self) -> Step {
         let at = self.plan.pzd_at();
         self.sim.drive_now().inject_fault(12);
-        let faulted = self.run_until(100_000, |s| {
+        let faulted = self.run_until_cycles(100_000, |s| {
             s.inputs().get(at).is_some_and(|w| w & status::FAULT != 0)
         })?;
         self.check(faulted, |s| {
             format!(
-                "a drive fault not in the status word within 100 ms ({:04X?})",
+                "a drive fault not in the status word within 100 ms and {BOUND_CYCLES} cycles ({:04X?})",
                 s.inputs()
             )
         })?;
         self.put_outputs(RUN | control::FAULT_RESET);
-        let reset = self.run_until(100_000, |s| {
+        let reset = self.run_until_cycles(100_000, |s| {
             s.inputs().get(at).is_some_and(|w| w & status::FAULT == 0)
                 && s.sim.drive_now().fault().is_none()
         })?;
         self.check(reset, |_| {
-            "the fault reset did not clear the fault in 100 ms".into()
+            format!("the fault reset did not clear the fault in 100 ms and {BOUND_CYCLES} cycles")
         })?;
         self.put_outputs(RUN);
         Ok(())
@@ -820,14 +971,18 @@ impl<F: Firmware> Soak<F> {
         let at = self.plan.pzd_at();
         let t0 = self.sim.now_us();
         self.sim.drive_now().link_fault = fault;
-        // Seed 000: PZD1 in is C0xxh while the link is down (after its retries).
-        let shown = self.run_until(us, |s| {
-            s.inputs().get(at).is_some_and(|w| w & 0xFF00 == 0xC000)
-        })?;
-        let noisy_or_short = fault == LinkFault::Noise || us < 100_000;
-        self.check(shown || noisy_or_short, |_| {
+        // Seed 000: PZD1 in is C0xxh while the link is down (after its retries). A fault of
+        // 100 ms or more lasts until the inputs have crossed the bus a few times.
+        let must_show = fault != LinkFault::Noise && us >= 100_000;
+        let link_error = |s: &mut Self| s.inputs().get(at).is_some_and(|w| w & 0xFF00 == 0xC000);
+        let shown = if must_show {
+            self.run_until_cycles(us, link_error)?
+        } else {
+            self.run_until(us, link_error)?
+        };
+        self.check(shown || !must_show, |_| {
             format!(
-                "the drive link {fault:?} for {} ms, never shown in PZD1",
+                "the drive link {fault:?} for {} ms and {BOUND_CYCLES} cycles, never shown in PZD1",
                 us / 1000
             )
         })?;
@@ -847,12 +1002,14 @@ impl<F: Firmware> Soak<F> {
             }
         };
         put(self, [0; 4]);
-        let cleared = self.run_until(200_000, |s| s.inputs().get(..4) == Some(&[0, 0, 0, 0]))?;
+        let cleared =
+            self.run_until_cycles(200_000, |s| s.inputs().get(..4) == Some(&[0, 0, 0, 0]))?;
         self.check(cleared, |_| {
-            "the PKW reply did not clear within 200 ms".into()
+            "the PKW reply did not clear within 200 ms and the bound's cycles".into()
         })?;
         put(self, request);
-        let replied = self.run_until(200_000, |s| s.inputs().first().is_some_and(|&w| w != 0))?;
+        let replied =
+            self.run_until_cycles(200_000, |s| s.inputs().first().is_some_and(|&w| w != 0))?;
         let reply = replied.then(|| self.inputs()[..4].to_vec());
         let got = scenarios::vendor_reply(&reply);
         self.check(got == want, |_| {

@@ -901,9 +901,19 @@ fn wait_drive<F: Firmware>(
 /// A Global_Control Clear_Data from the master's address, sent by the commissioning tool
 /// (profirust 0.6 cannot send one): the PLC stopped.
 pub(crate) fn plc_stop<F: Firmware>(sim: &mut CoSim<F>, setup: &MasterSetup) -> io::Result<()> {
-    let payload = [dp_consts::control_command::CLEAR_DATA, 0];
+    global_control(sim, setup, dp_consts::control_command::CLEAR_DATA)
+}
+
+/// A Global_Control with `command` to every group from the master's address, sent by the
+/// commissioning tool (profirust 0.6 sends none).
+pub(crate) fn global_control<F: Firmware>(
+    sim: &mut CoSim<F>,
+    setup: &MasterSetup,
+    command: u8,
+) -> io::Result<()> {
+    let payload = [command, 0];
     let request = Repr::Data(DataRepr {
-        da: SWITCH_ADDRESS,
+        da: setup.slave_address,
         sa: setup.address,
         dsap: Some(Sap::GLOBAL_CONTROL),
         ssap: Some(Sap::MASTER_MS0),
@@ -916,9 +926,7 @@ pub(crate) fn plc_stop<F: Firmware>(sim: &mut CoSim<F>, setup: &MasterSetup) -> 
     });
     let mut bytes = vec![0u8; request.buffer_len()];
     request.emit(&mut bytes).expect("a valid request");
-    let mut tool = setup.clone();
-    tool.slave_address = SWITCH_ADDRESS;
-    sim.tool_request(tool, &bytes, 100)?;
+    sim.tool_request(setup.clone(), &bytes, 100)?;
     Ok(())
 }
 

@@ -14,7 +14,7 @@ mod dpv1;
 mod drive;
 mod support;
 
-pub(crate) use drive::{plc_stop, vendor_reply, vendor_request, words};
+pub(crate) use drive::{global_control, plc_stop, vendor_reply, vendor_request, words};
 pub(crate) use support::{limit_us, probe_services};
 pub use support::{Checks, Report, SWITCH_ADDRESS};
 

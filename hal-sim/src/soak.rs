@@ -23,6 +23,7 @@ use crate::cosim::{echo_user_prm, CoSim, MasterSetup, Program};
 use crate::firmware::Firmware;
 use crate::scenarios::{self, Checks, SWITCH_ADDRESS};
 use dp_consts::Baud;
+use dp_link::NvRecord;
 use dp_phy::bus::{FaultWindow, LineFault};
 use dp_phy::{BaudState, Tick};
 use drive_sim::{LinkFault, ACCEL_TIME, SET_FREQUENCY};
@@ -190,6 +191,10 @@ enum Event {
         watchdog_ms: u64,
         sync_freeze: bool,
     },
+    /// The switch to 0 and a power cycle, Set_Slave_Add to `address` from a tool, and a power
+    /// cut: after the storage write, or `cut` thousandths of the way through it (the write's
+    /// page erases and word programs done in order up to there); then the switch back.
+    SetSlaveAdd { address: u8, cut: Option<u32> },
     /// Global_Control Sync (or Freeze), a new set frequency held (or the inputs frozen), then
     /// Sync again and Unsync (or Unfreeze); ignored where Set_Prm did not ask for it.
     SyncFreeze { freeze: bool },
@@ -221,6 +226,7 @@ impl Event {
             Event::MasterAway { .. } => "master-away",
             Event::SecondMaster => "second-master",
             Event::SetPrm { .. } => "set-prm",
+            Event::SetSlaveAdd { .. } => "set-slave-add",
             Event::SyncFreeze { freeze: false } => "sync",
             Event::SyncFreeze { freeze: true } => "freeze",
             Event::PlcStop => "plc-stop",
@@ -235,7 +241,7 @@ impl Event {
     fn draw(seed: u64, index: u64, plan: &Plan) -> Event {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let ms = |rng: &mut ChaCha8Rng, lo: u64, hi: u64| rng.gen_range(lo..=hi) * 1_000;
-        match rng.gen_range(0..108) {
+        match rng.gen_range(0..113) {
             0..=19 => Event::Steady {
                 frequency: rng.gen_range(1..=50) * 100,
                 us: ms(&mut rng, 5, 60),
@@ -282,6 +288,16 @@ impl Event {
                 us: ms(&mut rng, 10, 500),
             },
             100..=107 => Event::SyncFreeze { freeze: rng.gen() },
+            108..=112 => Event::SetSlaveAdd {
+                // Not the master's, the tools' (1, 3) or the switch's.
+                address: loop {
+                    let a = rng.gen_range(4..=125);
+                    if a != SWITCH_ADDRESS {
+                        break a;
+                    }
+                },
+                cut: rng.gen_bool(0.6).then(|| rng.gen_range(0..=1000)),
+            },
             _ if !plan.ppo.has_pkw() => Event::Steady {
                 frequency: rng.gen_range(1..=50) * 100,
                 us: ms(&mut rng, 5, 60),
@@ -777,6 +793,7 @@ impl<F: Firmware> Soak<F> {
             }
             Event::PlcStop => self.plc_stop(),
             Event::SyncFreeze { freeze } => self.sync_freeze(freeze),
+            Event::SetSlaveAdd { address, cut } => self.set_slave_add(address, cut),
             Event::PowerCycle { after_us } => {
                 self.run_for(after_us)?;
                 let before = self.sim.bridge.stored()?;
@@ -929,6 +946,79 @@ impl<F: Firmware> Soak<F> {
         self.frequency_comes_back(new)
     }
 
+    /// Set_Slave_Add and a power cut in or after its storage write: the storage loads the
+    /// old record or the new one, never a third thing or nothing where it had one; the adapter
+    /// comes up at what it loaded and reaches data exchange there.
+    fn set_slave_add(&mut self, address: u8, cut: Option<u32>) -> Step {
+        // The master leaves; with the switch at 0 the board comes up at the stored address
+        // (126 with none), waiting for its parameters, where Set_Slave_Add is allowed.
+        self.sim.stop_master();
+        self.sim.bridge.switch = 0;
+        self.sim.power_cycle()?;
+        let old = self.sim.bridge.stored()?.address;
+        let at = self.sim.bridge.status.address;
+        self.check(at == old.map_or(126, |r| r.address), |_| {
+            format!("switch 0: the adapter at {at}, with {old:?} stored")
+        })?;
+        let before = self.sim.bridge.firmware.storage()?;
+        let answer = scenarios::set_slave_add_request(&mut self.sim, self.plan.baud, at, address)?;
+        self.check(answer.as_deref() == Some(&[dp_consts::SC][..]), |_| {
+            format!("Set_Slave_Add {at} -> {address}: the answer {answer:02X?}, not SC")
+        })?;
+        let new = NvRecord {
+            address,
+            no_add_chg: false,
+        };
+        let written = self.run_until(20_000, |s| {
+            s.sim.bridge.stored().is_ok_and(|c| c.address == Some(new))
+        })?;
+        self.check(written, |_| {
+            format!("Set_Slave_Add to {address}: not in the storage within 20 ms")
+        })?;
+        if let Some(permille) = cut {
+            let after = self.sim.bridge.firmware.storage()?;
+            let torn = torn_write(&before, &after, permille);
+            self.sim.bridge.firmware.set_storage(torn)?;
+        }
+        self.sim.power_cycle()?;
+        let loaded = self.sim.bridge.stored()?.address;
+        let up_at = self.sim.bridge.status.address;
+        self.check(loaded == old || loaded == Some(new), |_| {
+            format!("a power cut in the storage write left {loaded:?} (old {old:?}, new {new:?})")
+        })?;
+        self.check(cut.is_some() || loaded == Some(new), |_| {
+            format!("the write was complete, and the storage loads {loaded:?}")
+        })?;
+        self.check(up_at == loaded.map_or(126, |r| r.address), |_| {
+            format!("the adapter came up at {up_at} with {loaded:?} stored")
+        })?;
+        let mut setup = self.plan.setup();
+        setup.slave_address = up_at;
+        self.sim.start_master(setup);
+        if let Some(m) = self.sim.master.as_mut() {
+            m.program = Program::Manual;
+        }
+        self.put_outputs(RUN);
+        let bound_us = scenarios::limit_us(self.plan.baud) + 2_000_000;
+        let exchange = self.run_until(bound_us, |s| {
+            s.sim.master.as_mut().is_some_and(|m| m.running()) && s.cycles() >= 3
+        })?;
+        self.check(exchange, |_| {
+            format!(
+                "no data exchange at address {up_at} within {} ms",
+                bound_us / 1000
+            )
+        })?;
+        // The switch back: the address is the switch's again, the record stays.
+        self.sim.stop_master();
+        self.sim.bridge.switch = SWITCH_ADDRESS;
+        self.sim.power_cycle()?;
+        let back = self.sim.bridge.status.address;
+        self.check(back == SWITCH_ADDRESS, |_| {
+            format!("the switch back at {SWITCH_ADDRESS}: the adapter at {back}")
+        })
+    }
+
     fn plc_stop(&mut self) -> Step {
         let Some(master) = self.take_master_on_a_quiet_line()? else {
             return Ok(());
@@ -1018,6 +1108,32 @@ impl<F: Firmware> Soak<F> {
         put(self, [0; 4]);
         Ok(())
     }
+}
+
+/// The storage as a power cut leaves it `permille` thousandths of the way through the write
+/// that took it from `before` to `after`. Flash clears bits word by word and sets them only by
+/// erasing a page: the write is taken as its words programmed in address order, and where it
+/// erased a page (a move of the storage's items, whose order the diff cannot tell) the cut
+/// falls before the whole write or after it.
+pub fn torn_write(before: &[u8], after: &[u8], permille: u32) -> Vec<u8> {
+    use nv_store::{PAGE_BYTES, WRITE_BYTES};
+    let erased = before
+        .chunks(PAGE_BYTES)
+        .zip(after.chunks(PAGE_BYTES))
+        .any(|(b, a)| b.iter().zip(a).any(|(b, a)| !b & a != 0));
+    if erased {
+        return if permille < 500 { before } else { after }.to_vec();
+    }
+    let changed: Vec<usize> = (0..before.len().min(after.len()))
+        .step_by(WRITE_BYTES)
+        .filter(|&at| before[at..at + WRITE_BYTES] != after[at..at + WRITE_BYTES])
+        .collect();
+    let done = changed.len() * permille.min(1000) as usize / 1000;
+    let mut torn = before.to_vec();
+    for &at in &changed[..done] {
+        torn[at..at + WRITE_BYTES].copy_from_slice(&after[at..at + WRITE_BYTES]);
+    }
+    torn
 }
 
 /// Runs the campaign of `options` around `firmware`.

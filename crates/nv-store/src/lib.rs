@@ -30,7 +30,7 @@ use sequential_storage::map::{MapConfig, MapStorage, SerializationError};
 #[cfg(any(test, feature = "std"))]
 mod mem_flash;
 #[cfg(any(test, feature = "std"))]
-pub use mem_flash::MemFlash;
+pub use mem_flash::{MemFlash, PAGE_BYTES, WRITE_BYTES};
 
 /// The items' keys.
 const KEY_ADDRESS: u8 = 1;

@@ -143,25 +143,7 @@ pub fn set_slave_add<F: Firmware>(
         "switch 0, empty storage: address 126",
         sim.bridge.status.address == 126,
     );
-    let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
-    let payload = [42, hi, lo, 0];
-    let request = Repr::Data(DataRepr {
-        da: 126,
-        sa: 1,
-        dsap: Some(Sap::SET_SLAVE_ADD),
-        ssap: Some(Sap::MASTER_MS0),
-        fc: FrameControl::Request {
-            fcb: true,
-            fcv: false,
-            function: RequestFunction::SrdLow,
-        },
-        payload: &payload,
-    });
-    let mut bytes = vec![0u8; request.buffer_len()];
-    request.emit(&mut bytes).expect("a valid request");
-    let mut tool = MasterSetup::new(baud, 126);
-    tool.address = 1;
-    let answer = sim.tool_request(tool, &bytes, 300)?;
+    let answer = set_slave_add_request(sim, baud, 126, 42)?;
     c.check(
         "Set_Slave_Add acknowledged (SC)",
         answer.as_deref() == Some(&[dp_consts::SC][..]),
@@ -185,6 +167,35 @@ pub fn set_slave_add<F: Firmware>(
     let ok = exchange(sim, 20, limit_us(baud))?;
     c.check("data exchange at address 42", ok);
     Ok(Vec::new())
+}
+
+/// A commissioning tool (station 1) asks the slave at `at` to take `address` (its ident
+/// number, changes allowed later); the answer read back from the line, if any.
+pub(crate) fn set_slave_add_request<F: Firmware>(
+    sim: &mut CoSim<F>,
+    baud: Baud,
+    at: u8,
+    address: u8,
+) -> io::Result<Option<Vec<u8>>> {
+    let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
+    let payload = [address, hi, lo, 0];
+    let request = Repr::Data(DataRepr {
+        da: at,
+        sa: 1,
+        dsap: Some(Sap::SET_SLAVE_ADD),
+        ssap: Some(Sap::MASTER_MS0),
+        fc: FrameControl::Request {
+            fcb: true,
+            fcv: false,
+            function: RequestFunction::SrdLow,
+        },
+        payload: &payload,
+    });
+    let mut bytes = vec![0u8; request.buffer_len()];
+    request.emit(&mut bytes).expect("a valid request");
+    let mut tool = MasterSetup::new(baud, at);
+    tool.address = 1;
+    sim.tool_request(tool, &bytes, 300)
 }
 
 /// Switch 99 restores the factory defaults.

@@ -14,6 +14,7 @@ mod dpv1;
 mod drive;
 mod support;
 
+pub(crate) use bus::set_slave_add_request;
 pub(crate) use drive::{global_control, plc_stop, vendor_reply, vendor_request, words};
 pub(crate) use support::{limit_us, probe_services};
 pub use support::{Checks, Report, SWITCH_ADDRESS};

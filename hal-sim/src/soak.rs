@@ -123,6 +123,9 @@ struct Plan {
     watchdog_ms: u64,
     /// Set_Prm asks for Sync and Freeze.
     sync_freeze: bool,
+    /// DP-V1: the drive's 51.21 DP MODE is 1, Set_Prm carries DPV1_Status_1-3 (DPV1_Enable),
+    /// and the master reads and writes parameters over MSAC1 beside the cyclic data.
+    dpv1: bool,
 }
 
 /// The bits of one data exchange cycle of the longest PPO, with the master's token and
@@ -150,7 +153,14 @@ impl Plan {
         prm.fail_safe = self.fail_safe;
         prm.fail_safe_pzd[0] = RUN;
         prm.fail_safe_pzd[1] = FAIL_SAFE_FREQUENCY;
-        setup.user_prm = prm.encode().to_vec();
+        setup.user_prm = if self.dpv1 {
+            // Seed 004's DP-V1 Set_Prm: DPV1_Status_1-3, then the header byte onward.
+            let mut user_prm = vec![dp_consts::dpv1::status1::DPV1_ENABLE, 0, 0];
+            user_prm.extend_from_slice(&prm.encode()[1..]);
+            user_prm
+        } else {
+            prm.encode().to_vec()
+        };
         setup.watchdog_ms = self.watchdog_ms();
         setup.sync_freeze = self.sync_freeze;
         setup
@@ -190,7 +200,11 @@ enum Event {
         fail_safe: FailSafeMode,
         watchdog_ms: u64,
         sync_freeze: bool,
+        dpv1: bool,
     },
+    /// Parameters over DP-V1 (MSAC1): 964, 918, a write of seed 004's 12.02, and an
+    /// invalid index; a steady run where the plan is not DP-V1.
+    Dpv1 { value: u16 },
     /// The switch to 0 and a power cycle, Set_Slave_Add to `address` from a tool, and a power
     /// cut: after the storage write, or `cut` thousandths of the way through it (the write's
     /// page erases and word programs done in order up to there); then the switch back.
@@ -227,6 +241,7 @@ impl Event {
             Event::SecondMaster => "second-master",
             Event::SetPrm { .. } => "set-prm",
             Event::SetSlaveAdd { .. } => "set-slave-add",
+            Event::Dpv1 { .. } => "dpv1",
             Event::SyncFreeze { freeze: false } => "sync",
             Event::SyncFreeze { freeze: true } => "freeze",
             Event::PlcStop => "plc-stop",
@@ -241,7 +256,7 @@ impl Event {
     fn draw(seed: u64, index: u64, plan: &Plan) -> Event {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let ms = |rng: &mut ChaCha8Rng, lo: u64, hi: u64| rng.gen_range(lo..=hi) * 1_000;
-        match rng.gen_range(0..113) {
+        match rng.gen_range(0..121) {
             0..=19 => Event::Steady {
                 frequency: rng.gen_range(1..=50) * 100,
                 us: ms(&mut rng, 5, 60),
@@ -272,6 +287,7 @@ impl Event {
                 ][rng.gen_range(0..3)],
                 watchdog_ms: [50, 100, 200, 500][rng.gen_range(0..4)],
                 sync_freeze: rng.gen(),
+                dpv1: rng.gen_bool(0.4),
             },
             66..=70 => Event::PlcStop,
             71..=76 => Event::PowerCycle {
@@ -288,6 +304,9 @@ impl Event {
                 us: ms(&mut rng, 10, 500),
             },
             100..=107 => Event::SyncFreeze { freeze: rng.gen() },
+            113..=120 => Event::Dpv1 {
+                value: rng.gen_range(0..=1000),
+            },
             108..=112 => Event::SetSlaveAdd {
                 // Not the master's, the tools' (1, 3) or the switch's.
                 address: loop {
@@ -364,6 +383,8 @@ pub struct Soak<F: Firmware> {
     inputs_seen_at: u64,
     /// The lock the invariants last saw.
     lock_seen: Option<Baud>,
+    /// The drive's 51.21 DP MODE as the adapter last took it (DP-V1 or not).
+    drive_dpv1: bool,
     checked: u64,
     history: VecDeque<String>,
 }
@@ -383,7 +404,9 @@ impl<F: Firmware> Soak<F> {
                 fail_safe: FailSafeMode::Stop,
                 watchdog_ms: 200,
                 sync_freeze: false,
+                dpv1: false,
             },
+            drive_dpv1: false,
             frequency: 100,
             sent: BTreeSet::from([0, FAIL_SAFE_FREQUENCY]),
             inputs_seen_at: 0,
@@ -501,16 +524,47 @@ impl<F: Firmware> Soak<F> {
 
     /// The master of the plan starts, and the adapter is brought to data exchange.
     fn start(&mut self) -> Step {
-        self.start_master();
+        self.start_master()?;
         self.recover()
     }
 
-    fn start_master(&mut self) {
-        self.sim.start_master(self.plan.setup());
+    fn start_master(&mut self) -> Step {
+        self.start_master_at(SWITCH_ADDRESS)
+    }
+
+    /// The master of the plan starts, for the slave at `address`; first, where the plan's
+    /// DP-V1 differs from the drive's 51.21 DP MODE, the mode is set at the drive's panel and
+    /// taken with a refresh (51.27), the master off the bus meanwhile.
+    fn start_master_at(&mut self, address: u8) -> Step {
+        if self.plan.dpv1 != self.drive_dpv1 {
+            use profidrive::fieldbus_group::{self as fieldbus, index as fb};
+            self.sim.stop_master();
+            let mode = u16::from(self.plan.dpv1);
+            let panel = |s: &mut Self, i: u8, v: u16| {
+                let _ = s.sim.drive_now().set_at_panel(fieldbus::code(i).0, v);
+            };
+            panel(self, fb::DP_MODE, mode);
+            panel(self, fb::PAR_REFRESH, fieldbus::REFRESH);
+            let group = |s: &mut Self, i: u8| s.sim.drive_now().read_register(fieldbus::code(i).0);
+            let taken = self.run_until(2_000_000, |s| {
+                group(s, fb::PAR_REFRESH) == Ok(fieldbus::DONE) && group(s, fb::DP_MODE) == Ok(mode)
+            })?;
+            self.check(taken, |_| {
+                format!("51.21 DP MODE = {mode} not taken with a refresh within 2 s")
+            })?;
+            self.drive_dpv1 = self.plan.dpv1;
+        }
+        let mut setup = self.plan.setup();
+        setup.slave_address = address;
+        self.sim.start_master(setup);
         if let Some(m) = self.sim.master.as_mut() {
             m.program = Program::Manual;
+            if self.plan.dpv1 {
+                m.msac1 = Some(crate::msac1_master::Msac1Requester::new(address));
+            }
         }
         self.put_outputs(RUN);
+        Ok(())
     }
 
     /// The master's outputs: `control` and the set frequency, the rest zero.
@@ -658,7 +712,7 @@ impl<F: Firmware> Soak<F> {
     /// in the inputs within its bound (no state is stuck).
     fn recover(&mut self) -> Step {
         if self.sim.master.is_none() {
-            self.start_master();
+            self.start_master()?;
         }
         let baud = self.plan.baud;
         // Parameterisation may wait for the baud watchdog (a rate change the adapter missed)
@@ -716,8 +770,7 @@ impl<F: Firmware> Soak<F> {
             }
             Event::RateChange(baud) => {
                 self.plan.baud = baud;
-                self.start_master();
-                Ok(())
+                self.start_master()
             }
             Event::NoiseBurst { us, count, seed } => {
                 let from = self.sim.now;
@@ -780,20 +833,22 @@ impl<F: Firmware> Soak<F> {
                 fail_safe,
                 watchdog_ms,
                 sync_freeze,
+                dpv1,
             } => {
                 self.plan = Plan {
                     ppo,
                     fail_safe,
                     watchdog_ms,
                     sync_freeze,
+                    dpv1,
                     ..self.plan
                 };
-                self.start_master();
-                Ok(())
+                self.start_master()
             }
             Event::PlcStop => self.plc_stop(),
             Event::SyncFreeze { freeze } => self.sync_freeze(freeze),
             Event::SetSlaveAdd { address, cut } => self.set_slave_add(address, cut),
+            Event::Dpv1 { value } => self.dpv1(value),
             Event::PowerCycle { after_us } => {
                 self.run_for(after_us)?;
                 let before = self.sim.bridge.stored()?;
@@ -992,13 +1047,7 @@ impl<F: Firmware> Soak<F> {
         self.check(up_at == loaded.map_or(126, |r| r.address), |_| {
             format!("the adapter came up at {up_at} with {loaded:?} stored")
         })?;
-        let mut setup = self.plan.setup();
-        setup.slave_address = up_at;
-        self.sim.start_master(setup);
-        if let Some(m) = self.sim.master.as_mut() {
-            m.program = Program::Manual;
-        }
-        self.put_outputs(RUN);
+        self.start_master_at(up_at)?;
         let bound_us = scenarios::limit_us(self.plan.baud) + 2_000_000;
         let exchange = self.run_until(bound_us, |s| {
             s.sim.master.as_mut().is_some_and(|m| m.running()) && s.cycles() >= 3
@@ -1016,6 +1065,81 @@ impl<F: Firmware> Soak<F> {
         let back = self.sim.bridge.status.address;
         self.check(back == SWITCH_ADDRESS, |_| {
             format!("the switch back at {SWITCH_ADDRESS}: the adapter at {back}")
+        })
+    }
+
+    /// Parameters over DP-V1 (seed 004's examples and errors): each request answered, as
+    /// the manual says, within 300 ms.
+    fn dpv1(&mut self, value: u16) -> Step {
+        use profidrive::pd_access::{RequestId, Values};
+        if !self.plan.dpv1 {
+            return self.new_frequency(self.frequency % 4900 + 100);
+        }
+        let ident = u32::from(dp_consts::ADAPTER_IDENT_NUMBER);
+        let x = scenarios::dpv1_request(
+            &mut self.sim,
+            1,
+            RequestId::Read,
+            &[scenarios::param(964, 0)],
+            &[],
+        )?;
+        let got = x.words(0);
+        self.check(got == Some(vec![ident]), |_| {
+            format!("DP-V1 read of 964: {got:04X?}, not the Ident_Number {ident:04X}")
+        })?;
+        let x = scenarios::dpv1_request(
+            &mut self.sim,
+            2,
+            RequestId::Read,
+            &[scenarios::param(918, 0)],
+            &[],
+        )?;
+        let got = x.words(0);
+        self.check(got == Some(vec![u32::from(SWITCH_ADDRESS)]), |_| {
+            format!("DP-V1 read of 918 (the node address): {got:?}")
+        })?;
+        // 12.02, a drive parameter (seed 004's example 2b), written and read back. Seed 004
+        // lines 1078-1090: with a PKW channel (PPO1, 2, 5) DP-V1 only reads, and a write is
+        // refused with 0Bh (no operation priority), the drive untouched.
+        let before = self.sim.drive_now().read_register(0xFB02).ok();
+        let bytes = value.to_be_bytes();
+        let at = scenarios::drive_param(1202);
+        let x = scenarios::dpv1_request(
+            &mut self.sim,
+            3,
+            RequestId::Change,
+            &[at],
+            &[Values::word(&bytes)],
+        )?;
+        let writes = !self.plan.ppo.has_pkw();
+        let answered = if writes {
+            x.response().is_some_and(|r| r.id == 0x02)
+        } else {
+            x.response().is_some_and(|r| r.id == 0x82) && x.error(0) == Some(0x0B)
+        };
+        let held = self.sim.drive_now().read_register(0xFB02).ok();
+        let want = if writes { Some(value) } else { before };
+        let response = x.done.as_ref().map(|d| d.response.clone());
+        self.check(answered && held == want, |s| {
+            format!(
+                "DP-V1 write of 12.02 = {value} with {:?}: the response {response:02X?}, the drive holds {held:?}, not {want:?}",
+                s.plan.ppo
+            )
+        })?;
+        let x = scenarios::dpv1_request(&mut self.sim, 4, RequestId::Read, &[at], &[])?;
+        let got = x.words(0);
+        self.check(got == want.map(|v| vec![u32::from(v)]), |_| {
+            format!("DP-V1 read of 12.02 after the write: {got:?}, not {want:?}")
+        })?;
+        // A write to index 48: invalid index (seed 004's error classes).
+        let x = scenarios::dpv1_job(
+            &mut self.sim,
+            crate::msac1_master::Job::Raw(vec![0x5F, 1, 48, 2, 1, 2]),
+        )?;
+        let got = x.done.map(|d| d.response);
+        let want = [0xDF, 0x80, dp_consts::dpv1::error::INVALID_INDEX, 0];
+        self.check(got.as_deref() == Some(&want[..]), |_| {
+            format!("DP-V1 write to index 48: {got:02X?}, not {want:02X?}")
         })
     }
 

@@ -23,9 +23,11 @@
 //!   hands them over. It writes nothing before that, so the adapter's defaults never overwrite
 //!   the drive's settings.
 //! - Then it writes whatever the adapter shows ([`FieldbusGroup::show`]) and the drive does not
-//!   hold. After a link fault it forgets what the drive holds and writes it all again, so a
-//!   restarted drive shows the truth; it does not read the settings again, so a 915 write made
-//!   while the drive was away is not undone.
+//!   hold. After a link fault it writes its own displays (51.01, 51.03, 51.04) again, so a
+//!   restarted drive shows the truth; the settings are the drive's parameters, and a change
+//!   made at the panel waits for a refresh, so they are written only where the adapter's
+//!   differ from what the drive held (a 915 write made while the drive was away is not
+//!   undone, nor is a panel change written over). It does not read the settings again.
 //! - Every [`REFRESH_POLL_US`] it reads 51.27. REFRESH: the settings are read again and handed
 //!   over with `refreshed` set, and DONE is written after the adapter has taken them.
 //! - A drive without the group (it refuses 51.xx) is left alone: the adapter keeps its own
@@ -278,10 +280,18 @@ impl FieldbusGroup {
         }
     }
 
-    /// The link failed (any transaction): the drive may restart, so what it holds is
-    /// unknown; a load under way starts over.
+    /// The link failed (any transaction): the drive may restart, so what it holds of the
+    /// adapter's own displays (51.01, 51.03, 51.04) is unknown and they are written again; a
+    /// load under way starts over. The settings (51.02, 51.05-51.21) are the drive's own
+    /// parameters, kept over its restart, and the panel's: a change made there since the load
+    /// waits for a refresh and must not be written over with the value in force (the soak's
+    /// seed 5, event 185: a 51.21 set at the panel just after the link came back was undone,
+    /// and the refresh took the old mode). A 915/916 write that came meanwhile still differs
+    /// from what the drive holds, and is written.
     pub fn link_lost(&mut self) {
-        self.held = [None; LAST_INDEX as usize + 1];
+        for i in [index::MODULE_TYPE, index::BAUD_RATE, index::PPO_TYPE] {
+            self.held[usize::from(i)] = None;
+        }
         self.differs = true;
         if let Phase::Loading { at, .. } = &mut self.phase {
             *at = 0;
@@ -489,6 +499,25 @@ mod tests {
             (MODULE_TYPE_PROFIBUS_DP, 2, 113)
         );
         assert!(group.take_settings().is_none());
+    }
+
+    #[test]
+    fn a_link_fault_does_not_write_over_a_setting_changed_at_the_panel() {
+        let mut drive = [0u16; 28];
+        drive[21] = DP_MODE_DPV1;
+        let mut group = FieldbusGroup::default();
+        serve(&mut group, &mut drive, 0);
+        let settings = group.take_settings().unwrap();
+        group.show(index::DP_MODE, settings.dp_mode);
+        serve(&mut group, &mut drive, 0);
+        group.link_lost();
+        // Back: the panel sets DP-V0 and asks for a refresh before the group's next turn.
+        drive[21] = DP_MODE_DPV0;
+        drive[27] = REFRESH;
+        serve(&mut group, &mut drive, REFRESH_POLL_US);
+        let settings = group.take_settings().expect("refreshed");
+        assert_eq!(settings.dp_mode, DP_MODE_DPV0);
+        assert_eq!(drive[21], DP_MODE_DPV0);
     }
 
     #[test]

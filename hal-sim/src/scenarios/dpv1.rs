@@ -24,23 +24,23 @@ use std::io;
 
 const TICKS_PER_US: u64 = (crate::cosim::CLOCK_HZ / 1_000_000) as u64;
 
-fn value(number: u16, subindex: u16) -> ParamAddress {
+pub(crate) fn value(number: u16, subindex: u16) -> ParamAddress {
     ParamAddress::value(number, subindex, 0)
 }
 
 /// Drive parameter xx.yy as seed 004 addresses it: xxyy's high byte and low byte.
-fn drive(xxyy: u16) -> ParamAddress {
+pub(crate) fn drive(xxyy: u16) -> ParamAddress {
     value(xxyy >> 8, xxyy & 0xFF)
 }
 
 /// What one exchange gave: the PROFIdrive response, and the exchange itself.
-struct Exchange {
-    done: Option<Done>,
+pub(crate) struct Exchange {
+    pub(crate) done: Option<Done>,
 }
 
 impl Exchange {
     /// The parameter response (the read's data after its MSAC1 header).
-    fn response(&self) -> Option<ParamResponsePdu<'_>> {
+    pub(crate) fn response(&self) -> Option<ParamResponsePdu<'_>> {
         let done = self.done.as_ref()?;
         (done.response.first() == Some(&u8::from(dpv1::Function::Read)))
             .then(|| ParamResponsePdu::parse(&done.response[4..]))
@@ -48,7 +48,7 @@ impl Exchange {
     }
 
     /// The words of parameter `i`'s block.
-    fn words(&self, i: usize) -> Option<Vec<u32>> {
+    pub(crate) fn words(&self, i: usize) -> Option<Vec<u32>> {
         let r = self.response()?;
         let v = r.values(i)?;
         (v.format == Format::Word)
@@ -56,14 +56,14 @@ impl Exchange {
     }
 
     /// The error number of parameter `i`, if it failed.
-    fn error(&self, i: usize) -> Option<u32> {
+    pub(crate) fn error(&self, i: usize) -> Option<u32> {
         let v = self.response()?.values(i)?;
         (v.format == Format::Error).then(|| v.get(0)).flatten()
     }
 }
 
 /// Runs one job to its end (at most 300 ms of bus time).
-fn run_job<F: Firmware>(sim: &mut CoSim<F>, job: Job) -> io::Result<Exchange> {
+pub(crate) fn run_job<F: Firmware>(sim: &mut CoSim<F>, job: Job) -> io::Result<Exchange> {
     let before = sim
         .master
         .as_ref()
@@ -88,7 +88,7 @@ fn run_job<F: Firmware>(sim: &mut CoSim<F>, job: Job) -> io::Result<Exchange> {
 }
 
 /// A PROFIdrive parameter request, reference `reference`.
-fn request<F: Firmware>(
+pub(crate) fn request<F: Firmware>(
     sim: &mut CoSim<F>,
     reference: u8,
     id: RequestId,

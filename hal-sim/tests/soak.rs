@@ -30,6 +30,17 @@ fn a_soak_of_every_kind_of_event_finds_no_violation() {
     assert_eq!(summary.events, 150);
 }
 
+#[test]
+fn an_in_process_run_replays_exactly() {
+    let run = || soak::run(InProcess::new(), &options(3, 12)).unwrap().0;
+    let (a, b) = (run(), run());
+    assert_eq!(
+        (a.events, a.simulated_us, a.invariants_checked, &a.kinds),
+        (b.events, b.simulated_us, b.invariants_checked, &b.kinds)
+    );
+    assert!(a.violation.is_none() && a.simulated_us > 0);
+}
+
 /// Every point a power cut can fall in a storage write of an address record (the soak's
 /// torn write) leaves the storage loading the old record or the new one: first from an empty
 /// storage, then over a record, then with the pages nearly full of earlier records.

@@ -14,10 +14,9 @@
 //! - A firmware that stops answering (a panic, a HardFault, QEMU gone) is a violation, not an
 //!   error of the campaign.
 //!
-//! What it does not cover yet, and says so in the README: DP-V1 requests, Sync and Freeze,
-//! Set_Slave_Add and a power cut inside a storage write, the PROFIdrive profile (every master
-//! here runs the vendor profile with PZD2 echoed through the drive, which is what lets the
-//! outputs be followed to the drive and back).
+//! What it does not cover yet, and says so in the README: the PROFIdrive profile (every
+//! master here runs the vendor profile with PZD2 echoed through the drive, which is what lets
+//! the outputs be followed to the drive and back).
 
 use crate::cosim::{echo_user_prm, CoSim, MasterSetup, Program};
 use crate::firmware::Firmware;

@@ -5,7 +5,7 @@ use crate::cosim::{CoSim, MasterSetup};
 use crate::firmware::Firmware;
 use dp_consts::Baud;
 use dp_link::{Led, NvRecord, SlaveState};
-use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
+use fdl::{RequestFunction, Sap};
 use profirust::dp::DiagnosticFlags;
 use std::io;
 
@@ -179,20 +179,14 @@ pub(crate) fn set_slave_add_request<F: Firmware>(
 ) -> io::Result<Option<Vec<u8>>> {
     let [hi, lo] = dp_consts::ADAPTER_IDENT_NUMBER.to_be_bytes();
     let payload = [address, hi, lo, 0];
-    let request = Repr::Data(DataRepr {
-        da: at,
-        sa: 1,
-        dsap: Some(Sap::SET_SLAVE_ADD),
-        ssap: Some(Sap::MASTER_MS0),
-        fc: FrameControl::Request {
-            fcb: true,
-            fcv: false,
-            function: RequestFunction::SrdLow,
-        },
-        payload: &payload,
-    });
-    let mut bytes = vec![0u8; request.buffer_len()];
-    request.emit(&mut bytes).expect("a valid request");
+    let bytes = service_request(
+        at,
+        1,
+        Sap::SET_SLAVE_ADD,
+        RequestFunction::SrdLow,
+        true,
+        &payload,
+    );
     let mut tool = MasterSetup::new(baud, at);
     tool.address = 1;
     sim.tool_request(tool, &bytes, 300)

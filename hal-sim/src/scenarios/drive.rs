@@ -13,7 +13,7 @@ use dp_consts::Baud;
 use dp_link::{HostLed, Led};
 use drive_link::LED_ACTIVITY_US;
 use drive_sim::{DriveSim, LinkFault, ACCEL_TIME, DECEL_TIME, OUTPUT_CURRENT, SET_FREQUENCY};
-use fdl::{DataRepr, FrameControl, Repr, RequestFunction, Sap};
+use fdl::{RequestFunction, Sap};
 use profidrive::codes::FunctionCode;
 use profidrive::fieldbus_group::{self as fieldbus, index as fb};
 use profidrive::pd_params::{Frame, RequestLabel, ResponseLabel};
@@ -912,20 +912,14 @@ pub(crate) fn global_control<F: Firmware>(
     command: u8,
 ) -> io::Result<()> {
     let payload = [command, 0];
-    let request = Repr::Data(DataRepr {
-        da: setup.slave_address,
-        sa: setup.address,
-        dsap: Some(Sap::GLOBAL_CONTROL),
-        ssap: Some(Sap::MASTER_MS0),
-        fc: FrameControl::Request {
-            fcb: false,
-            fcv: false,
-            function: RequestFunction::SdnLow,
-        },
-        payload: &payload,
-    });
-    let mut bytes = vec![0u8; request.buffer_len()];
-    request.emit(&mut bytes).expect("a valid request");
+    let bytes = super::support::service_request(
+        setup.slave_address,
+        setup.address,
+        Sap::GLOBAL_CONTROL,
+        RequestFunction::SdnLow,
+        false,
+        &payload,
+    );
     sim.tool_request(setup.clone(), &bytes, 100)?;
     Ok(())
 }

@@ -22,6 +22,33 @@ impl Checks {
     }
 }
 
+/// A tool's request from station `sa` to the service `dsap` of station `da` (its SSAP
+/// MS0), as bytes on the line.
+pub(crate) fn service_request(
+    da: u8,
+    sa: u8,
+    dsap: Sap,
+    function: RequestFunction,
+    fcb: bool,
+    payload: &[u8],
+) -> Vec<u8> {
+    let request = Repr::Data(DataRepr {
+        da,
+        sa,
+        dsap: Some(dsap),
+        ssap: Some(Sap::MASTER_MS0),
+        fc: FrameControl::Request {
+            fcb,
+            fcv: false,
+            function,
+        },
+        payload,
+    });
+    let mut bytes = vec![0u8; request.buffer_len()];
+    request.emit(&mut bytes).expect("a valid request");
+    bytes
+}
+
 /// Lines a scenario adds to the run's report (figures, not compared with golden files).
 pub type Report = Vec<String>;
 

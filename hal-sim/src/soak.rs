@@ -125,6 +125,8 @@ struct Plan {
     /// DP-V1: the drive's 51.21 DP MODE is 1, Set_Prm carries DPV1_Status_1-3 (DPV1_Enable),
     /// and the master reads and writes parameters over MSAC1 beside the cyclic data.
     dpv1: bool,
+    /// With DP-V1: DPV1_Status_1's WD_Base_1ms, the watchdog's factors in 1 ms.
+    watchdog_1ms: bool,
 }
 
 /// The bits of one data exchange cycle of the longest PPO, with the master's token and
@@ -152,15 +154,24 @@ impl Plan {
         prm.fail_safe = self.fail_safe;
         prm.fail_safe_pzd[0] = RUN;
         prm.fail_safe_pzd[1] = FAIL_SAFE_FREQUENCY;
+        let watchdog_1ms = self.dpv1 && self.watchdog_1ms;
         setup.user_prm = if self.dpv1 {
             // Seed 004's DP-V1 Set_Prm: DPV1_Status_1-3, then the header byte onward.
-            let mut user_prm = vec![dp_consts::dpv1::status1::DPV1_ENABLE, 0, 0];
+            use dp_consts::dpv1::status1;
+            let base = if watchdog_1ms {
+                status1::WD_BASE_1MS
+            } else {
+                0
+            };
+            let mut user_prm = vec![status1::DPV1_ENABLE | base, 0, 0];
             user_prm.extend_from_slice(&prm.encode()[1..]);
             user_prm
         } else {
             prm.encode().to_vec()
         };
-        setup.watchdog_ms = self.watchdog_ms();
+        // profirust writes the factors in 10 ms; with the 1 ms base the slave reads them in 1 ms,
+        // so the master is given ten times the watchdog meant.
+        setup.watchdog_ms = self.watchdog_ms() * if watchdog_1ms { 10 } else { 1 };
         setup.sync_freeze = self.sync_freeze;
         setup
     }
@@ -200,7 +211,10 @@ enum Event {
         watchdog_ms: u64,
         sync_freeze: bool,
         dpv1: bool,
+        watchdog_1ms: bool,
     },
+    /// The drive warns (AL.`code`), and the warning goes.
+    DriveWarning { code: u8 },
     /// Parameters over DP-V1 (MSAC1): 964, 918, a write of seed 004's 12.02, and an
     /// invalid index; a steady run where the plan is not DP-V1.
     Dpv1 { value: u16 },
@@ -241,6 +255,7 @@ impl Event {
             Event::SetPrm { .. } => "set-prm",
             Event::SetSlaveAdd { .. } => "set-slave-add",
             Event::Dpv1 { .. } => "dpv1",
+            Event::DriveWarning { .. } => "drive-warning",
             Event::SyncFreeze { freeze: false } => "sync",
             Event::SyncFreeze { freeze: true } => "freeze",
             Event::PlcStop => "plc-stop",
@@ -255,7 +270,7 @@ impl Event {
     fn draw(seed: u64, index: u64, plan: &Plan) -> Event {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let ms = |rng: &mut ChaCha8Rng, lo: u64, hi: u64| rng.gen_range(lo..=hi) * 1_000;
-        match rng.gen_range(0..121) {
+        match rng.gen_range(0..125) {
             0..=19 => Event::Steady {
                 frequency: rng.gen_range(1..=50) * 100,
                 us: ms(&mut rng, 5, 60),
@@ -287,6 +302,7 @@ impl Event {
                 watchdog_ms: [50, 100, 200, 500][rng.gen_range(0..4)],
                 sync_freeze: rng.gen(),
                 dpv1: rng.gen_bool(0.4),
+                watchdog_1ms: rng.gen(),
             },
             66..=70 => Event::PlcStop,
             71..=76 => Event::PowerCycle {
@@ -303,6 +319,9 @@ impl Event {
                 us: ms(&mut rng, 10, 500),
             },
             100..=107 => Event::SyncFreeze { freeze: rng.gen() },
+            121..=124 => Event::DriveWarning {
+                code: rng.gen_range(1..=20),
+            },
             113..=120 => Event::Dpv1 {
                 value: rng.gen_range(0..=1000),
             },
@@ -404,6 +423,7 @@ impl<F: Firmware> Soak<F> {
                 watchdog_ms: 200,
                 sync_freeze: false,
                 dpv1: false,
+                watchdog_1ms: false,
             },
             drive_dpv1: false,
             frequency: 100,
@@ -833,6 +853,7 @@ impl<F: Firmware> Soak<F> {
                 watchdog_ms,
                 sync_freeze,
                 dpv1,
+                watchdog_1ms,
             } => {
                 self.plan = Plan {
                     ppo,
@@ -840,6 +861,7 @@ impl<F: Firmware> Soak<F> {
                     watchdog_ms,
                     sync_freeze,
                     dpv1,
+                    watchdog_1ms,
                     ..self.plan
                 };
                 self.start_master()
@@ -862,6 +884,7 @@ impl<F: Firmware> Soak<F> {
                 })
             }
             Event::DriveFault => self.drive_fault(),
+            Event::DriveWarning { code } => self.drive_warning(code),
             Event::DriveLink { fault, us } => self.drive_link(fault, us),
             Event::Pkw {
                 task,
@@ -1178,6 +1201,34 @@ impl<F: Firmware> Soak<F> {
         })?;
         self.put_outputs(RUN);
         Ok(())
+    }
+
+    /// A warning shows in the status word (seed 000's bit 14) and goes with it; the drive runs
+    /// on, no fail-safe.
+    fn drive_warning(&mut self, code: u8) -> Step {
+        let at = self.plan.pzd_at();
+        let fail_safes = self.sim.bridge.status.fail_safes;
+        let warns = |s: &mut Self| s.inputs().get(at).is_some_and(|w| w & status::WARNING != 0);
+        self.sim.drive_now().set_warning(Some(code));
+        let shown = self.run_until_cycles(100_000, warns)?;
+        self.check(shown, |s| {
+            format!("warning AL.{code:02} not in the status word within 100 ms and {BOUND_CYCLES} cycles ({:04X?})", s.inputs())
+        })?;
+        self.sim.drive_now().set_warning(None);
+        let gone = self.run_until_cycles(100_000, |s| !warns(s))?;
+        self.check(gone, |_| {
+            format!("warning AL.{code:02} still in the status word 100 ms and {BOUND_CYCLES} cycles after it went")
+        })?;
+        let (cw, f) = {
+            let d = self.sim.drive_now();
+            (d.control_word(), d.read_register(SET_FREQUENCY).ok())
+        };
+        let frequency = self.frequency;
+        let running = cw == RUN && f == Some(frequency);
+        self.check(
+            running && self.sim.bridge.status.fail_safes == fail_safes,
+            |_| format!("a warning stopped the drive: CW {cw:04X}, F0.29 {f:?} (sent {frequency})"),
+        )
     }
 
     fn drive_link(&mut self, fault: LinkFault, us: u64) -> Step {

@@ -763,12 +763,14 @@ impl<F: Firmware> CoSim<F> {
             self.figures.bad_telegrams += 1;
             return Ok(());
         }
-        if !self.sent_lately(t.bytes()) && t.bytes().first() == Some(&dp_consts::SD4) {
-            self.figures.corrupt_tokens += 1;
-        } else if !self.sent_lately(t.bytes()) {
-            self.figures.corrupt_delivered += 1;
-            if self.figures.first_corrupt.is_none() {
-                self.figures.first_corrupt = Some(t.bytes().to_vec());
+        if !self.sent_lately(t.bytes()) {
+            if t.bytes().first() == Some(&dp_consts::SD4) {
+                self.figures.corrupt_tokens += 1;
+            } else {
+                self.figures.corrupt_delivered += 1;
+                self.figures
+                    .first_corrupt
+                    .get_or_insert_with(|| t.bytes().to_vec());
             }
         }
         if self.figures.lost_before_lock.is_none() {

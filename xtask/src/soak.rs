@@ -7,9 +7,9 @@
 //!   passed (whichever comes first; with neither, 300 events).
 //! - Its last line is `soak: seed=S events=N simulated_s=T invariants_checked=C violations=V`;
 //!   it exits non-zero on a violation, after printing the seed, the event index, the last
-//!   events and a command that replays exactly that run up to the event that failed, with a
-//!   waveform of that event (`--trace-from`) and the firmware's log, both under
-//!   `target/soak/seed-S/`.
+//!   events and a command that replays that run up to the event that failed (the same events;
+//!   in-process the same clocks too, under QEMU within a few clocks), with a waveform of that
+//!   event (`--trace-from`) and the firmware's log, both under `target/soak/seed-S/`.
 //! - `--broken fail-safe` builds the image with the fail-safe counted but never applied
 //!   (firmware feature `broken-fail-safe`): the proof that the campaign finds a defect.
 //! - A firmware that logged an ERROR line (a panic, a HardFault, a failed self-test) is a

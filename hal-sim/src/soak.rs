@@ -204,15 +204,8 @@ enum Event {
     /// A commissioning tool (a second master, station 3) asks for every DP-V0 service
     /// profirust does not send.
     SecondMaster,
-    /// The master parameterises and configures the adapter anew.
-    SetPrm {
-        ppo: Ppo,
-        fail_safe: FailSafeMode,
-        watchdog_ms: u64,
-        sync_freeze: bool,
-        dpv1: bool,
-        watchdog_1ms: bool,
-    },
+    /// The master parameterises and configures the adapter anew, at the rate it runs at.
+    SetPrm(Plan),
     /// The drive warns (AL.`code`), and the warning goes.
     DriveWarning { code: u8 },
     /// Parameters over DP-V1 (MSAC1): 964, 918, a write of seed 004's 12.02, and an
@@ -252,7 +245,7 @@ impl Event {
             Event::CablePull { .. } => "cable-pull",
             Event::MasterAway { .. } => "master-away",
             Event::SecondMaster => "second-master",
-            Event::SetPrm { .. } => "set-prm",
+            Event::SetPrm(_) => "set-prm",
             Event::SetSlaveAdd { .. } => "set-slave-add",
             Event::Dpv1 { .. } => "dpv1",
             Event::DriveWarning { .. } => "drive-warning",
@@ -270,11 +263,12 @@ impl Event {
     fn draw(seed: u64, index: u64, plan: &Plan) -> Event {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let ms = |rng: &mut ChaCha8Rng, lo: u64, hi: u64| rng.gen_range(lo..=hi) * 1_000;
+        let steady = |rng: &mut ChaCha8Rng| Event::Steady {
+            frequency: rng.gen_range(1..=50) * 100,
+            us: ms(rng, 5, 60),
+        };
         match rng.gen_range(0..125) {
-            0..=19 => Event::Steady {
-                frequency: rng.gen_range(1..=50) * 100,
-                us: ms(&mut rng, 5, 60),
-            },
+            0..=19 => steady(&mut rng),
             20..=29 => Event::RateChange(Baud::ALL[rng.gen_range(0..Baud::ALL.len())]),
             30..=35 => Event::NoiseBurst {
                 us: ms(&mut rng, 2, 20),
@@ -292,7 +286,8 @@ impl Event {
                 us: ms(&mut rng, 1, 600),
             },
             53..=57 => Event::SecondMaster,
-            58..=65 => Event::SetPrm {
+            58..=65 => Event::SetPrm(Plan {
+                baud: plan.baud,
                 ppo: Ppo::ALL[rng.gen_range(0..Ppo::ALL.len())],
                 fail_safe: [
                     FailSafeMode::Stop,
@@ -303,7 +298,7 @@ impl Event {
                 sync_freeze: rng.gen(),
                 dpv1: rng.gen_bool(0.4),
                 watchdog_1ms: rng.gen(),
-            },
+            }),
             66..=70 => Event::PlcStop,
             71..=76 => Event::PowerCycle {
                 after_us: rng.gen_range(0..20_000),
@@ -319,12 +314,6 @@ impl Event {
                 us: ms(&mut rng, 10, 500),
             },
             100..=107 => Event::SyncFreeze { freeze: rng.gen() },
-            121..=124 => Event::DriveWarning {
-                code: rng.gen_range(1..=20),
-            },
-            113..=120 => Event::Dpv1 {
-                value: rng.gen_range(0..=1000),
-            },
             108..=112 => Event::SetSlaveAdd {
                 // Not the master's, the tools' (1, 3) or the switch's.
                 address: loop {
@@ -335,10 +324,14 @@ impl Event {
                 },
                 cut: rng.gen_bool(0.6).then(|| rng.gen_range(0..=1000)),
             },
-            _ if !plan.ppo.has_pkw() => Event::Steady {
-                frequency: rng.gen_range(1..=50) * 100,
-                us: ms(&mut rng, 5, 60),
+            113..=120 => Event::Dpv1 {
+                value: rng.gen_range(0..=1000),
             },
+            121..=124 => Event::DriveWarning {
+                code: rng.gen_range(1..=20),
+            },
+            // The PKW kinds' share, where the PPO has no PKW channel.
+            _ if !plan.ppo.has_pkw() => steady(&mut rng),
             _ => {
                 // Seed 000's answers, as the drive scenario proves them one by one.
                 let ramp = rng.gen_range(1..=600);
@@ -847,22 +840,10 @@ impl<F: Firmware> Soak<F> {
                 }
                 Ok(())
             }
-            Event::SetPrm {
-                ppo,
-                fail_safe,
-                watchdog_ms,
-                sync_freeze,
-                dpv1,
-                watchdog_1ms,
-            } => {
+            Event::SetPrm(plan) => {
                 self.plan = Plan {
-                    ppo,
-                    fail_safe,
-                    watchdog_ms,
-                    sync_freeze,
-                    dpv1,
-                    watchdog_1ms,
-                    ..self.plan
+                    baud: self.plan.baud,
+                    ..plan
                 };
                 self.start_master()
             }

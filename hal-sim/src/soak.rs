@@ -14,9 +14,11 @@
 //! - A firmware that stops answering (a panic, a HardFault, QEMU gone) is a violation, not an
 //!   error of the campaign.
 //!
-//! What it does not cover yet, and says so in the README: the PROFIdrive profile (every
-//! master here runs the vendor profile with PZD2 echoed through the drive, which is what lets
-//! the outputs be followed to the drive and back).
+//! - Every profile of seed 004's Set_Prm runs: the vendor's words, PROFIdrive and ABB Drives.
+//!   In all three PZD2 out is the drive's set frequency and PZD2 in reads it back (the two
+//!   translating profiles with a rated frequency of their rated units, so REF and ACT are the
+//!   0.01 Hz themselves), which lets the outputs be followed to the drive and back; in the two
+//!   the master walks the state machine from the status word as a PLC does ([`Plc`]).
 
 use crate::cosim::{echo_user_prm, CoSim, MasterSetup, Program};
 use crate::firmware::Firmware;
@@ -26,9 +28,11 @@ use dp_link::NvRecord;
 use dp_phy::bus::{FaultWindow, LineFault};
 use dp_phy::{BaudState, Tick};
 use drive_sim::{LinkFault, ACCEL_TIME, SET_FREQUENCY};
+use profidrive::pd_params::{ErrorNumber, RequestLabel, ResponseLabel};
 use profidrive::pkw::{ReplyId, Task};
 use profidrive::ppo::Ppo;
-use profidrive::prm::FailSafeMode;
+use profidrive::prm::{FailSafeMode, OperationMode};
+use profidrive::profile::{control as pd, status as pds};
 use profidrive::words::{control, status};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -37,7 +41,8 @@ use std::io;
 
 const TICKS_PER_US: u64 = (crate::cosim::CLOCK_HZ / 1_000_000) as u64;
 
-/// The control word every soak master runs the drive with (vendor profile).
+/// The control word every soak master runs the drive with in the vendor profile, and what the
+/// drive gets from the translating profiles in OPERATION ENABLED.
 const RUN: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | control::REMOTE;
 
 /// PZD2 out in the fail-safe mode UseFailSafeValues: a set frequency no master sends (the
@@ -55,6 +60,16 @@ const BOUND_CAP_US: u64 = 5_000_000;
 
 /// Bus time between two looks at the invariants.
 const WATCH_US: u64 = 1_000;
+
+/// The drive's deceleration from its maximum frequency, 0.5 s (F0.14 in 0.1 s), set at its
+/// panel as the campaign starts: the PROFIdrive OFF1 (a fail-safe STOP) waits in OFF1 ACTIVE
+/// until the drive has ramped down, which with the drive's 5.0 s would make every such
+/// recovery seconds long.
+const DECELERATION: u16 = 5;
+
+/// How long the PLC holds a PROFIdrive RESET, and then leaves it off, at least: the adapter
+/// reads the outputs once per drive link cycle, and takes a RESET on its rise.
+const RESET_HOLD_US: u64 = 50_000;
 
 /// What a run is asked to do.
 #[derive(Clone, Debug)]
@@ -127,6 +142,8 @@ struct Plan {
     dpv1: bool,
     /// With DP-V1: DPV1_Status_1's WD_Base_1ms, the watchdog's factors in 1 ms.
     watchdog_1ms: bool,
+    /// Seed 004 byte 8's operation mode: the vendor's words, PROFIdrive or ABB Drives.
+    operation: OperationMode,
 }
 
 /// The bits of one data exchange cycle of the longest PPO, with the master's token and
@@ -152,7 +169,15 @@ impl Plan {
         setup.config = self.ppo.cfg().to_vec();
         let mut prm = echo_user_prm();
         prm.fail_safe = self.fail_safe;
-        prm.fail_safe_pzd[0] = RUN;
+        prm.operation = self.operation;
+        if self.translates() {
+            // The rated frequency as many 0.01 Hz as the rated speed's units: REF and ACT are
+            // the drive's 0.01 Hz themselves.
+            prm.rated_frequency = self.operation.rated_units() as u16;
+            prm.fail_safe_pzd[0] = pd::OPERATE;
+        } else {
+            prm.fail_safe_pzd[0] = RUN;
+        }
         prm.fail_safe_pzd[1] = FAIL_SAFE_FREQUENCY;
         let watchdog_1ms = self.dpv1 && self.watchdog_1ms;
         setup.user_prm = if self.dpv1 {
@@ -183,6 +208,89 @@ impl Plan {
         } else {
             0
         }
+    }
+
+    /// Whether the adapter runs the PROFIdrive state machine (PROFIdrive, ABB Drives).
+    fn translates(&self) -> bool {
+        self.operation.translates()
+    }
+
+    /// The status word says the drive is faulted: seed 000's fault bit, or TRIPPED.
+    fn faulted(&self, sw: u16) -> bool {
+        if self.translates() {
+            sw & pds::TRIPPED != 0
+        } else {
+            sw & status::FAULT != 0
+        }
+    }
+
+    /// The status word says the drive warns: seed 000's bit 14, or table 8's ALARM.
+    fn warns(&self, sw: u16) -> bool {
+        sw & if self.translates() {
+            pds::ALARM
+        } else {
+            status::WARNING
+        } != 0
+    }
+
+    /// The status word shows the drive link lost: seed 000's C0xxh, or (issue 18) TRIPPED
+    /// and never C0xxh in the translating profiles.
+    fn shows_link_loss(&self, sw: u16) -> bool {
+        let c0xx = sw & 0xFF00 == profidrive::drive::PZD1_LINK_ERROR;
+        if self.translates() {
+            sw & pds::TRIPPED != 0 && !c0xx
+        } else {
+            c0xx
+        }
+    }
+
+    /// The status word says the drive runs on the master's commands: OPERATION ENABLED in
+    /// the translating profiles (any status word in the vendor's, where the master sends its
+    /// run command whatever the drive says).
+    fn operating(&self, sw: u16) -> bool {
+        let enabled = pds::RDY_ON | pds::RDY_RUN | pds::RDY_REF;
+        !self.translates() || (sw & enabled == enabled && sw & pds::TRIPPED == 0)
+    }
+}
+
+/// The master's PLC program in the translating profiles: from the status word it reads, the
+/// control word that walks seed 004's state machine (figure 9) to OPERATION ENABLED and keeps
+/// it there, acknowledging a fault with a RESET held and released by turns.
+#[derive(Clone, Copy, Debug)]
+struct Plc {
+    /// The control word the master sends (the vendor's RUN, or FAULT_RESET with it, there).
+    control: u16,
+    /// Faults are acknowledged (off while an event looks at a fault latched).
+    acknowledge: bool,
+    /// When RESET last went on or off: bus time and data exchange cycles.
+    reset_since: (u64, u64),
+}
+
+impl Plc {
+    /// The control word after status word `sw`, at `now` (bus time, cycles).
+    fn next(&mut self, sw: u16, now: (u64, u64)) -> u16 {
+        if now.1 < self.reset_since.1 {
+            // A new master counts its cycles from 0.
+            self.reset_since.1 = 0;
+        }
+        let resetting = self.control & pd::RESET != 0;
+        let control = if sw & pds::TRIPPED != 0 && self.acknowledge {
+            let held = now.0 >= self.reset_since.0 + RESET_HOLD_US
+                && now.1 >= self.reset_since.1 + BOUND_CYCLES;
+            pd::OPERATE | if resetting != held { pd::RESET } else { 0 }
+        } else if sw & pds::TRIPPED != 0 {
+            pd::OPERATE
+        } else if sw & pds::SWC_ON_INHIB != 0 {
+            // Figure 9: out of SWITCH-ON INHIBIT with ON 0.
+            pd::READY
+        } else {
+            pd::OPERATE
+        };
+        if (control & pd::RESET != 0) != resetting {
+            self.reset_since = now;
+        }
+        self.control = control;
+        control
     }
 }
 
@@ -226,13 +334,77 @@ enum Event {
     DriveFault,
     /// The drive link fails this way for a while.
     DriveLink { fault: LinkFault, us: u64 },
-    /// A parameter request: (task, code, value, the reply it must get).
-    Pkw {
+    /// A parameter request over the PKW channel, in the plan's profile.
+    Pkw(PkwRequest),
+}
+
+/// A PKW request and the reply it must get.
+#[derive(Clone, Copy, Debug)]
+enum PkwRequest {
+    /// Seed 000's channel (the vendor profile): task, function code, value.
+    Vendor {
         task: Task,
         code: u16,
         value: u16,
-        want: Option<(ReplyId, u16)>,
+        want: (ReplyId, u16),
     },
+    /// Seed 004's PROFIdrive channel (the translating profiles): a PROFIdrive parameter, or
+    /// a drive parameter xxyy as PNU xx and index yy.
+    Profidrive {
+        label: RequestLabel,
+        pnu: u16,
+        index: u8,
+        value: u32,
+        want: (ResponseLabel, u32),
+    },
+}
+
+impl PkwRequest {
+    /// A PROFIdrive request for drive parameter `number` (xxyy, seed 004's numbering).
+    fn drive_parameter(
+        label: RequestLabel,
+        number: u16,
+        value: u32,
+        want: (ResponseLabel, u32),
+    ) -> Self {
+        PkwRequest::Profidrive {
+            label,
+            pnu: number >> 8,
+            index: number as u8,
+            value,
+            want,
+        }
+    }
+
+    /// The four PKW words out.
+    fn words(&self) -> [u16; 4] {
+        match *self {
+            PkwRequest::Vendor {
+                task, code, value, ..
+            } => scenarios::vendor_request(task, code, value),
+            PkwRequest::Profidrive {
+                label,
+                pnu,
+                index,
+                value,
+                ..
+            } => scenarios::pd_request(label, pnu, index, value),
+        }
+    }
+
+    /// Whether `reply` (the four PKW words in, if any came) is the one wanted; what it was.
+    fn judge(&self, reply: &Option<Vec<u16>>) -> (bool, String) {
+        match self {
+            PkwRequest::Vendor { want, .. } => {
+                let got = scenarios::vendor_reply(reply);
+                (got == Some(*want), format!("{got:?}"))
+            }
+            PkwRequest::Profidrive { want, .. } => {
+                let got = scenarios::pd_reply(reply);
+                (got == Some(*want), format!("{got:?}"))
+            }
+        }
+    }
 }
 
 impl Event {
@@ -255,7 +427,8 @@ impl Event {
             Event::PowerCycle { .. } => "power-cycle",
             Event::DriveFault => "drive-fault",
             Event::DriveLink { .. } => "drive-link",
-            Event::Pkw { .. } => "pkw",
+            Event::Pkw(PkwRequest::Vendor { .. }) => "pkw",
+            Event::Pkw(PkwRequest::Profidrive { .. }) => "pkw-profidrive",
         }
     }
 
@@ -298,6 +471,11 @@ impl Event {
                 sync_freeze: rng.gen(),
                 dpv1: rng.gen_bool(0.4),
                 watchdog_1ms: rng.gen(),
+                operation: [
+                    OperationMode::Vendor,
+                    OperationMode::Profidrive,
+                    OperationMode::AbbDrives,
+                ][rng.gen_range(0..3)],
             }),
             66..=70 => Event::PlcStop,
             71..=76 => Event::PowerCycle {
@@ -332,35 +510,51 @@ impl Event {
             },
             // The PKW kinds' share, where the PPO has no PKW channel.
             _ if !plan.ppo.has_pkw() => steady(&mut rng),
+            _ if plan.translates() => {
+                // Seed 004's answers, as the PROFIdrive scenario proves them one by one.
+                use {ErrorNumber as E, RequestLabel as Rq, ResponseLabel as Rs};
+                let ramp = rng.gen_range(1..=600);
+                let error = |e: E| (Rs::Error, u32::from(u16::from(e)));
+                Event::Pkw(match rng.gen_range(0..5) {
+                    // F0.13, the acceleration time.
+                    0 => PkwRequest::drive_parameter(Rq::WriteWord, 113, ramp, (Rs::Word, ramp)),
+                    // F0.29, the set frequency, above the drive's 50.00 Hz.
+                    1 => {
+                        PkwRequest::drive_parameter(Rq::WriteWord, 129, 9000, error(E::OutOfRange))
+                    }
+                    // D0.00, a status value.
+                    2 => PkwRequest::drive_parameter(Rq::WriteWord, 2100, 5, error(E::ReadOnly)),
+                    3 => PkwRequest::Profidrive {
+                        label: Rq::Read,
+                        pnu: 918,
+                        index: 0,
+                        value: 0,
+                        want: (Rs::Word, u32::from(SWITCH_ADDRESS)),
+                    },
+                    _ => PkwRequest::Profidrive {
+                        label: Rq::Read,
+                        pnu: 999,
+                        index: 0,
+                        value: 0,
+                        want: error(E::IllegalPnu),
+                    },
+                })
+            }
             _ => {
                 // Seed 000's answers, as the drive scenario proves them one by one.
                 let ramp = rng.gen_range(1..=600);
-                match rng.gen_range(0..4) {
-                    0 => Event::Pkw {
-                        task: Task::Write,
-                        code: ACCEL_TIME,
-                        value: ramp,
-                        want: Some((ReplyId::Value, ramp)),
-                    },
-                    1 => Event::Pkw {
-                        task: Task::Read,
-                        code: 0xF058,
-                        value: 0,
-                        want: Some((ReplyId::Refused, 0x02)),
-                    },
-                    2 => Event::Pkw {
-                        task: Task::Write,
-                        code: SET_FREQUENCY,
-                        value: 9000,
-                        want: Some((ReplyId::Refused, 0x03)),
-                    },
-                    _ => Event::Pkw {
-                        task: Task::Write,
-                        code: 0xD000,
-                        value: 1,
-                        want: Some((ReplyId::Refused, 0x11)),
-                    },
-                }
+                let vendor = |task, code, value, want| PkwRequest::Vendor {
+                    task,
+                    code,
+                    value,
+                    want,
+                };
+                Event::Pkw(match rng.gen_range(0..4) {
+                    0 => vendor(Task::Write, ACCEL_TIME, ramp, (ReplyId::Value, ramp)),
+                    1 => vendor(Task::Read, 0xF058, 0, (ReplyId::Refused, 0x02)),
+                    2 => vendor(Task::Write, SET_FREQUENCY, 9000, (ReplyId::Refused, 0x03)),
+                    _ => vendor(Task::Write, 0xD000, 1, (ReplyId::Refused, 0x11)),
+                })
             }
         }
     }
@@ -396,6 +590,7 @@ pub struct Soak<F: Firmware> {
     lock_seen: Option<Baud>,
     /// The drive's 51.21 DP MODE as the adapter last took it (DP-V1 or not).
     drive_dpv1: bool,
+    plc: Plc,
     checked: u64,
     history: VecDeque<String>,
 }
@@ -407,6 +602,9 @@ impl<F: Firmware> Soak<F> {
         // Noise draws trials at other rates now and then; the soak counts them, it keeps no
         // golden file of events.
         sim.log_failed_trials = false;
+        sim.drive_now()
+            .set_at_panel(drive_sim::DECEL_TIME, DECELERATION)
+            .map_err(|e| io::Error::other(format!("F0.14 at the drive's panel: {e:?}")))?;
         Ok(Soak {
             sim,
             plan: Plan {
@@ -417,8 +615,14 @@ impl<F: Firmware> Soak<F> {
                 sync_freeze: false,
                 dpv1: false,
                 watchdog_1ms: false,
+                operation: OperationMode::Vendor,
             },
             drive_dpv1: false,
+            plc: Plc {
+                control: RUN,
+                acknowledge: true,
+                reset_since: (0, 0),
+            },
             frequency: 100,
             sent: BTreeSet::from([0, FAIL_SAFE_FREQUENCY]),
             inputs_seen_at: 0,
@@ -575,14 +779,14 @@ impl<F: Firmware> Soak<F> {
                 m.msac1 = Some(crate::msac1_master::Msac1Requester::new(address));
             }
         }
-        self.put_outputs(RUN);
+        self.put_outputs();
         Ok(())
     }
 
-    /// The master's outputs: `control` and the set frequency, the rest zero.
-    fn put_outputs(&mut self, control: u16) {
+    /// The master's outputs: the PLC's control word and the set frequency, the rest zero.
+    fn put_outputs(&mut self) {
         let at = self.plan.pzd_at() * 2;
-        let frequency = self.frequency;
+        let (control, frequency) = (self.plc.control, self.frequency);
         self.sent.insert(frequency);
         if let Some(m) = self.sim.master.as_mut() {
             m.outputs.fill(0);
@@ -644,13 +848,18 @@ impl<F: Firmware> Soak<F> {
         limit_us: u64,
         mut done: impl FnMut(&mut Self) -> bool,
     ) -> Result<bool, Stop> {
-        let (t0, c0) = (self.sim.now_us(), self.cycles());
+        let t0 = self.sim.now_us();
+        // Cycles counted across a master that starts again (its count starts from 0).
+        let (mut last, mut cycles) = (self.cycles(), 0);
         loop {
             if done(self) {
                 return Ok(true);
             }
+            let now = self.cycles();
+            cycles += now.checked_sub(last).unwrap_or(now);
+            last = now;
             let elapsed = self.sim.now_us() - t0;
-            let bound = elapsed >= limit_us && self.cycles() >= c0 + BOUND_CYCLES;
+            let bound = elapsed >= limit_us && cycles >= BOUND_CYCLES;
             if bound || elapsed >= BOUND_CAP_US {
                 return Ok(false);
             }
@@ -702,8 +911,28 @@ impl<F: Firmware> Soak<F> {
                     format!("the inputs' PZD2 is {pzd2}, a set frequency no master sent")
                 })?;
             }
+            self.plc_step();
         }
         Ok(())
+    }
+
+    /// In the translating profiles, the PLC answers the status word of the cycle just done.
+    fn plc_step(&mut self) {
+        let Some(&sw) = self.inputs().get(self.plan.pzd_at()) else {
+            return;
+        };
+        if !self.plan.translates() {
+            return;
+        }
+        let before = self.plc.control;
+        if self.plc.next(sw, (self.sim.now_us(), self.cycles())) != before {
+            self.put_outputs();
+        }
+    }
+
+    /// The status word in the inputs, if the PPO has one.
+    fn status_word(&self) -> Option<u16> {
+        self.inputs().get(self.plan.pzd_at()).copied()
     }
 
     /// The adapter's stack at its deepest stayed clear of the statics (under QEMU).
@@ -738,6 +967,23 @@ impl<F: Firmware> Soak<F> {
         self.check(ok, |_| {
             format!("no data exchange at {baud} within {} ms", bound_us / 1000)
         })?;
+        if self.plan.translates() {
+            // The PLC's walk through figure 9: a RESET held and released, SWITCH-ON INHIBIT,
+            // the OFF1 ramp down, then a cycle a step.
+            let ramp_us = u64::from(DECELERATION) * 100_000;
+            let bound_us = 4 * RESET_HOLD_US + ramp_us + 200_000;
+            let operating = self.run_until_cycles(bound_us, |s| {
+                s.status_word().is_some_and(|sw| s.plan.operating(sw))
+            })?;
+            self.check(operating, |s| {
+                format!(
+                    "{:?}: not in OPERATION ENABLED within {} ms and {BOUND_CYCLES} cycles (status word {:04X?})",
+                    s.plan.operation,
+                    bound_us / 1000,
+                    s.status_word()
+                )
+            })?;
+        }
         self.new_frequency(self.frequency % 4900 + 100)?;
         Ok(())
     }
@@ -747,7 +993,7 @@ impl<F: Firmware> Soak<F> {
     fn new_frequency(&mut self, frequency: u16) -> Step {
         self.frequency = frequency;
         self.sent.insert(frequency);
-        self.put_outputs(RUN);
+        self.put_outputs();
         self.frequency_comes_back(frequency)
     }
 
@@ -841,6 +1087,9 @@ impl<F: Firmware> Soak<F> {
                 Ok(())
             }
             Event::SetPrm(plan) => {
+                if plan.operation.translates() != self.plan.translates() {
+                    self.plc.control = if plan.translates() { pd::READY } else { RUN };
+                }
                 self.plan = Plan {
                     baud: self.plan.baud,
                     ..plan
@@ -867,12 +1116,7 @@ impl<F: Firmware> Soak<F> {
             Event::DriveFault => self.drive_fault(),
             Event::DriveWarning { code } => self.drive_warning(code),
             Event::DriveLink { fault, us } => self.drive_link(fault, us),
-            Event::Pkw {
-                task,
-                code,
-                value,
-                want,
-            } => self.pkw(task, code, value, want),
+            Event::Pkw(request) => self.pkw(request),
         }
     }
 
@@ -959,7 +1203,7 @@ impl<F: Firmware> Soak<F> {
         let new = old % 4900 + 100;
         self.frequency = new;
         self.sent.insert(new);
-        self.put_outputs(RUN);
+        self.put_outputs();
         if !self.plan.sync_freeze {
             return self.frequency_comes_back(new);
         }
@@ -1160,11 +1404,14 @@ impl<F: Firmware> Soak<F> {
         self.check_fail_safe_drive("a PLC stop")
     }
 
+    /// The drive trips: its status word says so, and the master's reset clears it (the
+    /// vendor's FAULT_RESET; in the translating profiles the PLC's RESET, once the fault has
+    /// been seen latched).
     fn drive_fault(&mut self) -> Step {
-        let at = self.plan.pzd_at();
+        self.plc.acknowledge = false;
         self.sim.drive_now().inject_fault(12);
         let faulted = self.run_until_cycles(100_000, |s| {
-            s.inputs().get(at).is_some_and(|w| w & status::FAULT != 0)
+            s.status_word().is_some_and(|w| s.plan.faulted(w))
         })?;
         self.check(faulted, |s| {
             format!(
@@ -1172,24 +1419,35 @@ impl<F: Firmware> Soak<F> {
                 s.inputs()
             )
         })?;
-        self.put_outputs(RUN | control::FAULT_RESET);
-        let reset = self.run_until_cycles(100_000, |s| {
-            s.inputs().get(at).is_some_and(|w| w & status::FAULT == 0)
+        self.plc.acknowledge = true;
+        if !self.plan.translates() {
+            self.plc.control = RUN | control::FAULT_RESET;
+            self.put_outputs();
+        }
+        let bound_us = 100_000 + 2 * RESET_HOLD_US;
+        let reset = self.run_until_cycles(bound_us, |s| {
+            s.status_word().is_some_and(|w| !s.plan.faulted(w))
                 && s.sim.drive_now().fault().is_none()
         })?;
-        self.check(reset, |_| {
-            format!("the fault reset did not clear the fault in 100 ms and {BOUND_CYCLES} cycles")
+        self.check(reset, |s| {
+            format!(
+                "the fault reset did not clear the fault in {} ms and {BOUND_CYCLES} cycles ({:04X?})",
+                bound_us / 1000,
+                s.inputs()
+            )
         })?;
-        self.put_outputs(RUN);
+        if !self.plan.translates() {
+            self.plc.control = RUN;
+            self.put_outputs();
+        }
         Ok(())
     }
 
-    /// A warning shows in the status word (seed 000's bit 14) and goes with it; the drive runs
-    /// on, no fail-safe.
+    /// A warning shows in the status word (seed 000's bit 14, table 8's ALARM) and goes with
+    /// it; the drive runs on, no fail-safe.
     fn drive_warning(&mut self, code: u8) -> Step {
-        let at = self.plan.pzd_at();
         let fail_safes = self.sim.bridge.status.fail_safes;
-        let warns = |s: &mut Self| s.inputs().get(at).is_some_and(|w| w & status::WARNING != 0);
+        let warns = |s: &mut Self| s.status_word().is_some_and(|w| s.plan.warns(w));
         self.sim.drive_now().set_warning(Some(code));
         let shown = self.run_until_cycles(100_000, warns)?;
         self.check(shown, |s| {
@@ -1212,14 +1470,17 @@ impl<F: Firmware> Soak<F> {
         )
     }
 
+    /// The drive link fails for `us`: a loss long enough shows in the status word (seed
+    /// 000's C0xxh; TRIPPED in the translating profiles), and there, with the link back, the
+    /// TRIPPED holds until the master's RESET (issue 30).
     fn drive_link(&mut self, fault: LinkFault, us: u64) -> Step {
-        let at = self.plan.pzd_at();
         let t0 = self.sim.now_us();
+        self.plc.acknowledge = false;
         self.sim.drive_now().link_fault = fault;
-        // Seed 000: PZD1 in is C0xxh while the link is down (after its retries). A fault of
-        // 100 ms or more lasts until the inputs have crossed the bus a few times.
+        // The link is down after its retries. A fault of 100 ms or more lasts until the
+        // inputs have crossed the bus a few times.
         let must_show = fault != LinkFault::Noise && us >= 100_000;
-        let link_error = |s: &mut Self| s.inputs().get(at).is_some_and(|w| w & 0xFF00 == 0xC000);
+        let link_error = |s: &mut Self| s.status_word().is_some_and(|w| s.plan.shows_link_loss(w));
         let shown = if must_show {
             self.run_until_cycles(us, link_error)?
         } else {
@@ -1234,11 +1495,23 @@ impl<F: Firmware> Soak<F> {
         let spent = self.sim.now_us() - t0;
         self.run_for(us.saturating_sub(spent))?;
         self.sim.drive_now().link_fault = LinkFault::None;
+        if self.plan.translates() && shown {
+            let released = self.run_until_cycles(2 * RESET_HOLD_US, |s| {
+                s.status_word().is_some_and(|w| !s.plan.faulted(w))
+            })?;
+            self.check(!released, |s| {
+                format!(
+                    "{:?}: the drive link back, TRIPPED went with no RESET ({:04X?})",
+                    s.plan.operation,
+                    s.inputs()
+                )
+            })?;
+        }
+        self.plc.acknowledge = true;
         Ok(())
     }
 
-    fn pkw(&mut self, task: Task, code: u16, value: u16, want: Option<(ReplyId, u16)>) -> Step {
-        let request = scenarios::vendor_request(task, code, value);
+    fn pkw(&mut self, request: PkwRequest) -> Step {
         let put = |s: &mut Self, pkw: [u16; 4]| {
             if let Some(m) = s.sim.master.as_mut() {
                 for (i, w) in pkw.iter().enumerate() {
@@ -1252,14 +1525,12 @@ impl<F: Firmware> Soak<F> {
         self.check(cleared, |_| {
             "the PKW reply did not clear within 200 ms and the bound's cycles".into()
         })?;
-        put(self, request);
+        put(self, request.words());
         let replied =
             self.run_until_cycles(200_000, |s| s.inputs().first().is_some_and(|&w| w != 0))?;
         let reply = replied.then(|| self.inputs()[..4].to_vec());
-        let got = scenarios::vendor_reply(&reply);
-        self.check(got == want, |_| {
-            format!("PKW {task:?} {code:04X} = {value}: the reply {got:?}, not {want:?}")
-        })?;
+        let (right, got) = request.judge(&reply);
+        self.check(right, |_| format!("PKW {request:?}: the reply {got}"))?;
         put(self, [0; 4]);
         Ok(())
     }

@@ -28,6 +28,11 @@ fn a_soak_of_every_kind_of_event_finds_no_violation() {
         );
     }
     assert_eq!(summary.events, 150);
+    // Both PKW channels answered: the vendor profile's and, under a Set_Prm that chose
+    // PROFIdrive or ABB Drives, seed 004's, with the PLC walking the state machine.
+    for kind in ["pkw", "pkw-profidrive"] {
+        assert!(summary.kinds.contains_key(kind), "no {kind} event ran");
+    }
 }
 
 #[test]

@@ -394,7 +394,8 @@ fn set_at_panel_and_refresh<F: Firmware>(sim: &mut CoSim<F>, index: u8, value: u
         .set_at_panel(fieldbus::code(fb::PAR_REFRESH).0, fieldbus::REFRESH);
 }
 
-fn pd_request(label: RequestLabel, pnu: u16, index: u8, value: u32) -> [u16; 4] {
+/// A PROFIdrive PKW request (seed 004's parameter channel).
+pub(crate) fn pd_request(label: RequestLabel, pnu: u16, index: u8, value: u32) -> [u16; 4] {
     let w = words(
         &Frame {
             label: label.into(),
@@ -407,7 +408,8 @@ fn pd_request(label: RequestLabel, pnu: u16, index: u8, value: u32) -> [u16; 4] 
     [w[0], w[1], w[2], w[3]]
 }
 
-fn pd_reply(reply: &Option<Vec<u16>>) -> Option<(ResponseLabel, u32)> {
+/// A PROFIdrive PKW reply: (response label, value or error number).
+pub(crate) fn pd_reply(reply: &Option<Vec<u16>>) -> Option<(ResponseLabel, u32)> {
     reply.as_ref().map(|r| {
         let frame = Frame::decode(
             &r.iter()

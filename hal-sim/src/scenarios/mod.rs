@@ -18,7 +18,9 @@ pub(crate) use bus::set_slave_add_request;
 pub(crate) use dpv1::{
     drive as drive_param, request as dpv1_request, run_job as dpv1_job, value as param,
 };
-pub(crate) use drive::{global_control, plc_stop, vendor_reply, vendor_request, words};
+pub(crate) use drive::{
+    global_control, pd_reply, pd_request, plc_stop, vendor_reply, vendor_request, words,
+};
 pub(crate) use support::{limit_us, probe_services};
 pub use support::{Checks, Report, SWITCH_ADDRESS};
 

@@ -401,7 +401,8 @@ impl<F: Firmware> CoSim<F> {
         self.settle()
     }
 
-    fn event(&mut self, text: String) {
+    /// Adds `text` to what happened (the soak's PLC notes its steps there).
+    pub(crate) fn event(&mut self, text: String) {
         self.bridge.events.push(text);
     }
 

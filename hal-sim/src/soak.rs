@@ -13,7 +13,6 @@
 //!   with its event's index and the events before it.
 //! - A firmware that stops answering (a panic, a HardFault, QEMU gone) is a violation, not an
 //!   error of the campaign.
-//!
 //! - Every profile of seed 004's Set_Prm runs: the vendor's words, PROFIdrive and ABB Drives.
 //!   In all three PZD2 out is the drive's set frequency and PZD2 in reads it back (the two
 //!   translating profiles with a rated frequency of their rated units, so REF and ACT are the
@@ -50,7 +49,7 @@ const RUN: u16 = control::RUN_ENABLE | control::START_ENABLE | control::RUN | co
 const FAIL_SAFE_FREQUENCY: u16 = 1234;
 
 /// How many of the last events a violation prints.
-const HISTORY: usize = 12;
+const HISTORY: usize = 24;
 
 /// The data exchange cycles a bound of [`Soak::run_until_cycles`] takes at least.
 const BOUND_CYCLES: u64 = 4;
@@ -251,6 +250,16 @@ impl Plan {
         let enabled = pds::RDY_ON | pds::RDY_RUN | pds::RDY_REF;
         !self.translates() || (sw & enabled == enabled && sw & pds::TRIPPED == 0)
     }
+
+    /// The inputs say OPERATION ENABLED, and they carry `frequency` back: the status word
+    /// came after the outputs that sent it. A status word the adapter's inputs still hold from
+    /// before (a new master's first Data_Exchange is all zeros, in PROFIdrive an OFF2 the
+    /// adapter has yet to answer) is no proof.
+    fn operating_after(&self, inputs: &[u16], frequency: u16) -> bool {
+        let at = self.pzd_at();
+        inputs.get(at + 1) == Some(&frequency)
+            && inputs.get(at).is_some_and(|&sw| self.operating(sw))
+    }
 }
 
 /// The master's PLC program in the translating profiles: from the status word it reads, the
@@ -264,6 +273,8 @@ struct Plc {
     acknowledge: bool,
     /// When RESET last went on or off: bus time and data exchange cycles.
     reset_since: (u64, u64),
+    /// The status word it last read, so that the run's report shows each change.
+    status: Option<u16>,
 }
 
 impl Plc {
@@ -561,6 +572,7 @@ impl Event {
 }
 
 /// Why an event ended early.
+#[derive(Debug)]
 enum Stop {
     Violation(String),
 }
@@ -591,6 +603,8 @@ pub struct Soak<F: Firmware> {
     /// The drive's 51.21 DP MODE as the adapter last took it (DP-V1 or not).
     drive_dpv1: bool,
     plc: Plc,
+    /// The drive's control word as last looked at (for the report).
+    drive_control: Option<u16>,
     checked: u64,
     history: VecDeque<String>,
 }
@@ -622,7 +636,9 @@ impl<F: Firmware> Soak<F> {
                 control: RUN,
                 acknowledge: true,
                 reset_since: (0, 0),
+                status: None,
             },
+            drive_control: None,
             frequency: 100,
             sent: BTreeSet::from([0, FAIL_SAFE_FREQUENCY]),
             inputs_seen_at: 0,
@@ -869,6 +885,13 @@ impl<F: Firmware> Soak<F> {
 
     /// The invariants that hold at every moment.
     fn watch(&mut self) -> Step {
+        // The drive's control word in the run's report: what the adapter told the drive, next
+        // to what the PLC read and sent.
+        let drive_control = self.sim.drive_now().control_word();
+        if self.drive_control.replace(drive_control) != Some(drive_control) {
+            self.sim
+                .event(format!("drive: control word {drive_control:04X}"));
+        }
         let f = &self.sim.figures;
         let (late, corrupt) = (f.late_responses, f.corrupt_delivered);
         self.check(late == 0, |_| {
@@ -925,8 +948,14 @@ impl<F: Firmware> Soak<F> {
             return;
         }
         let before = self.plc.control;
-        if self.plc.next(sw, (self.sim.now_us(), self.cycles())) != before {
+        let control = self.plc.next(sw, (self.sim.now_us(), self.cycles()));
+        if control != before {
             self.put_outputs();
+        }
+        if self.plc.status.replace(sw) != Some(sw) || control != before {
+            self.sim.event(format!(
+                "plc: status word {sw:04X}, control word {control:04X}"
+            ));
         }
     }
 
@@ -949,8 +978,9 @@ impl<F: Firmware> Soak<F> {
     }
 
     /// After every event: a master at the plan's rate brings the adapter back to data
-    /// exchange within its bound, and a new set frequency goes to the drive and comes back
-    /// in the inputs within its bound (no state is stuck).
+    /// exchange within its bound, a new set frequency goes to the drive and comes back in the
+    /// inputs within its bound, and in the translating profiles the status word that comes
+    /// with it says OPERATION ENABLED within the PLC's walk (no state is stuck).
     fn recover(&mut self) -> Step {
         if self.sim.master.is_none() {
             self.start_master()?;
@@ -967,13 +997,16 @@ impl<F: Firmware> Soak<F> {
         self.check(ok, |_| {
             format!("no data exchange at {baud} within {} ms", bound_us / 1000)
         })?;
+        self.new_frequency(self.frequency % 4900 + 100)?;
         if self.plan.translates() {
             // The PLC's walk through figure 9: a RESET held and released, SWITCH-ON INHIBIT,
-            // the OFF1 ramp down, then a cycle a step.
+            // the OFF1 ramp down, then a cycle a step. Read on inputs that carry the set
+            // frequency just sent: a status word from before the master's outputs arrived
+            // (a new master's first Data_Exchange is all zeros, an OFF2) is no proof.
             let ramp_us = u64::from(DECELERATION) * 100_000;
             let bound_us = 4 * RESET_HOLD_US + ramp_us + 200_000;
             let operating = self.run_until_cycles(bound_us, |s| {
-                s.status_word().is_some_and(|sw| s.plan.operating(sw))
+                s.plan.operating_after(&s.inputs(), s.frequency)
             })?;
             self.check(operating, |s| {
                 format!(
@@ -984,7 +1017,6 @@ impl<F: Firmware> Soak<F> {
                 )
             })?;
         }
-        self.new_frequency(self.frequency % 4900 + 100)?;
         Ok(())
     }
 
@@ -1158,8 +1190,14 @@ impl<F: Firmware> Soak<F> {
             FailSafeMode::LastSpeed => cw == RUN && f == frequency,
             FailSafeMode::UseFailSafeValues => cw == RUN && f == FAIL_SAFE_FREQUENCY,
         };
-        self.check(ok, |_| {
-            format!("after {cause}, fail-safe {mode:?}: the drive has CW {cw:04X}, F0.29 {f} (last sent {frequency})")
+        self.check(ok, |s| {
+            format!(
+                "after {cause}, fail-safe {mode:?}: the drive has CW {cw:04X}, F0.29 {f} (last sent {frequency}); {:?}, the master's control word {:04X}, the last status word {:04X?}, drive link error {:02X}",
+                s.plan.operation,
+                s.plc.control,
+                s.status_word(),
+                s.sim.bridge.status.drive_link_error
+            )
         })
     }
 
@@ -1395,13 +1433,18 @@ impl<F: Firmware> Soak<F> {
             return Ok(());
         };
         let fail_safes = self.sim.bridge.status.fail_safes;
+        let before = format!(
+            "a PLC stop (the drive had CW {:04X}, the status word was {:04X?})",
+            self.sim.drive_now().control_word(),
+            self.status_word()
+        );
         scenarios::plc_stop(&mut self.sim, &master.setup)?;
         let applied = self.run_until(20_000, |s| s.sim.bridge.status.fail_safes > fail_safes)?;
         self.check(applied, |_| {
             "no fail-safe within 20 ms of a PLC stop".into()
         })?;
         self.run_for(20_000)?;
-        self.check_fail_safe_drive("a PLC stop")
+        self.check_fail_safe_drive(&before)
     }
 
     /// The drive trips: its status word says so, and the master's reset clears it (the
@@ -1565,4 +1608,48 @@ pub fn torn_write(before: &[u8], after: &[u8], permille: u32) -> Vec<u8> {
 /// Runs the campaign of `options` around `firmware`.
 pub fn run<F: Firmware>(firmware: F, options: &Options) -> io::Result<(Summary, F)> {
     Soak::new(firmware)?.run(options)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Seed 1, event 301, under QEMU: a new master at 12M, its first Data_Exchange all zeros
+    /// (an OFF2), the inputs still those from before the master left. Only the status word
+    /// that comes back with the new set frequency counts.
+    #[test]
+    fn operation_enabled_counts_only_on_inputs_that_carry_the_new_set_frequency() {
+        let plan = Plan {
+            baud: Baud::B12000000,
+            ppo: Ppo::Ppo5,
+            fail_safe: FailSafeMode::LastSpeed,
+            watchdog_ms: 50,
+            sync_freeze: false,
+            dpv1: false,
+            watchdog_1ms: false,
+            operation: OperationMode::Profidrive,
+        };
+        let at = plan.pzd_at();
+        let inputs = |sw: u16, pzd2: u16| {
+            let mut words = vec![0; at + 10];
+            words[at] = sw;
+            words[at + 1] = pzd2;
+            words
+        };
+        // What the report of that run shows, in order: the status word from before (with
+        // 800, the old set frequency), OFF2 with the new one, SWITCH-ON INHIBIT, the walk.
+        assert!(!plan.operating_after(&inputs(0x0237, 800), 900));
+        assert!(!plan.operating_after(&inputs(0x0220, 900), 900));
+        assert!(!plan.operating_after(&inputs(0x0270, 900), 900));
+        assert!(!plan.operating_after(&inputs(0x0231, 900), 900));
+        assert!(plan.operating_after(&inputs(0x0237, 900), 900));
+        // TRIPPED is never operating; the vendor profile asks nothing of the status word.
+        assert!(!plan.operating_after(&inputs(0x023F, 900), 900));
+        let vendor = Plan {
+            operation: OperationMode::Vendor,
+            ..plan
+        };
+        assert!(vendor.operating_after(&inputs(0, 900), 900));
+        assert!(!vendor.operating_after(&inputs(0, 800), 900));
+    }
 }

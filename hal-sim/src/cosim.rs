@@ -401,7 +401,8 @@ impl<F: Firmware> CoSim<F> {
         self.settle()
     }
 
-    /// Adds `text` to what happened (the soak's PLC notes its steps there).
+    /// Adds `text` to what happened (the soak notes its PLC's steps and the drive's control
+    /// word there).
     pub(crate) fn event(&mut self, text: String) {
         self.bridge.events.push(text);
     }

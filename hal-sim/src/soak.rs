@@ -1429,15 +1429,16 @@ impl<F: Firmware> Soak<F> {
     }
 
     fn plc_stop(&mut self) -> Step {
-        let Some(master) = self.take_master_on_a_quiet_line()? else {
-            return Ok(());
-        };
-        let fail_safes = self.sim.bridge.status.fail_safes;
+        // As the master last saw it, before it steps aside (its inputs go with it).
         let before = format!(
             "a PLC stop (the drive had CW {:04X}, the status word was {:04X?})",
             self.sim.drive_now().control_word(),
             self.status_word()
         );
+        let Some(master) = self.take_master_on_a_quiet_line()? else {
+            return Ok(());
+        };
+        let fail_safes = self.sim.bridge.status.fail_safes;
         scenarios::plc_stop(&mut self.sim, &master.setup)?;
         let applied = self.run_until(20_000, |s| s.sim.bridge.status.fail_safes > fail_safes)?;
         self.check(applied, |_| {

@@ -941,12 +941,12 @@ impl<F: Firmware> Soak<F> {
 
     /// In the translating profiles, the PLC answers the status word of the cycle just done.
     fn plc_step(&mut self) {
-        let Some(&sw) = self.inputs().get(self.plan.pzd_at()) else {
-            return;
-        };
         if !self.plan.translates() {
             return;
         }
+        let Some(sw) = self.status_word() else {
+            return;
+        };
         let before = self.plc.control;
         let control = self.plc.next(sw, (self.sim.now_us(), self.cycles()));
         if control != before {

@@ -1,16 +1,17 @@
-// The search's slower channels taking turns in one datapath: channel s (the rate of index s,
-// 9.6k first) is stepped on the clocks t with t % Slots == s, and samples the line on every
-// Frames[s]-th of them (dp_phy::autobaud::OVERSAMPLED: period Slots * Frames[s], phase s).
-// Each is then exactly an autobaud_channel with that period and phase, and the model's
-// AutoBaud::sampled on that schedule.
+// The search's slower channels taking turns in one datapath: the clocks of a frame of Slots
+// are each one channel's turn or free (autobaud_slots.svh's turn table, from the model's
+// dp_phy::autobaud::OVERSAMPLED: a channel whose period divides the frame has a turn every
+// period, one whose period is whole frames has one a frame), and a channel samples the line on
+// every Frames-th of its turns. Each is then exactly an autobaud_channel with that period and
+// phase, and the model's AutoBaud::sampled on that schedule. Channel c is the rate of index c.
 //
 // The channels' registers live in block RAM, one word a channel (autobaud_channel_step.v's
-// packed state and the frames left before its next sample): the word of the channel whose turn
+// packed state and the turns left before its next sample): the word of the channel whose turn
 // comes next is read one clock ahead (the RAM's read is registered), stepped on its clock and
-// written back at that clock's edge, while the next one is read. A channel whose word has not
-// been written since reset reads as its reset value instead (fresh_q), as block RAM cannot be
-// reset. The figures of the channel in turn come from a table written from the model
-// (autobaud_slots.svh, by crates/rtl-check).
+// written back at that clock's edge, while the next one is read (no channel has two turns in a
+// row). A channel whose word has not been written since reset reads as its reset value
+// instead (fresh_q), as block RAM cannot be reset. The figures of the channel in turn come from
+// a table written from the model (autobaud_slots.svh, by crates/rtl-check).
 //
 // At most one channel decides on a clock: detect_o and reject_o are one-hot, and the decision's
 // byte, code and start age are that channel's. measuring_o keeps each channel's flag in
@@ -18,7 +19,9 @@
 `default_nettype none
 
 module autobaud_shared #(
-  parameter int Slots         = 6,
+  // Clocks in the frame of turns, and the channels that take them.
+  parameter int Slots         = 24,
+  parameter int Channels      = 8,
   // Widths: the widest of the channels' (their figures are zero-extended to these).
   parameter int PhaseWidth    = 7,
   parameter int IdleWidth     = 10,
@@ -26,16 +29,18 @@ module autobaud_shared #(
   parameter int TimeWidth     = 8,
   parameter int AltWidth      = 5,
   parameter int FrameWidth    = 6,
+  // Wide enough for the longest sample period in clocks.
+  parameter int PeriodWidth   = 8,
   parameter int ClocksWidth   = 24,
   parameter int PendOutWidth  = 12
 ) (
   input  wire                     clk_i,
   input  wire                     rst_ni,
   input  wire                     level_i,
-  input  wire [Slots-1:0]         heard_i,
+  input  wire [Channels-1:0]      heard_i,
   input  wire                     heard_any_i,
-  output wire [Slots-1:0]         detect_o,
-  output wire [Slots-1:0]         reject_o,
+  output wire [Channels-1:0]      detect_o,
+  output wire [Channels-1:0]      reject_o,
   output wire [1:0]               reject_code_o,
   output wire [7:0]               byte_o,
   // The deciding channel's clocks since its character's start edge.
@@ -45,27 +50,33 @@ module autobaud_shared #(
   // The deciding channel's idle line rose after its character's end.
   output wire                     rose_after_end_o,
   // Each channel samples the line on this clock (only the one in turn can).
-  output wire [Slots-1:0]         samples_o,
-  output wire [Slots-1:0]         measuring_o
+  output wire [Channels-1:0]      samples_o,
+  output wire [Channels-1:0]      measuring_o
 );
   localparam int SlotWidth   = $clog2(Slots);
+  localparam int ChanWidth   = $clog2(Channels);
   localparam int ReaderWidth = 4 * PhaseWidth + 21;
   localparam int StateWidth  = 2 * PendWidth + 2 * IdleWidth + 2 * TimeWidth + AltWidth + 8
                                + 2 * ReaderWidth;
   localparam int WordWidth   = StateWidth + FrameWidth;
   localparam logic [ReaderWidth-1:0] ReaderReset = {4'd11, (ReaderWidth - 4)'(0)};
 
-  // The channel in turn this clock, and whose word the RAM is reading for the next.
+  // The clock of the frame, and the channel in turn on it (turn_q: a channel's turn, not a
+  // free slot); the turn of the next clock is looked up a clock ahead (turn_valid,
+  // turn_channel: turn_of(slot_d), the table's), so that the RAM reads its word.
   logic [SlotWidth-1:0] slot_q, slot_d;
-  logic [Slots-1:0]     fresh_q, fresh_d;
-  logic [Slots-1:0]     measuring_q, measuring_d;
+  logic                 turn_q, turn_valid;
+  logic [ChanWidth-1:0] channel_q, turn_channel;
+  logic [Channels-1:0]  fresh_q, fresh_d;
+  logic [Channels-1:0]  measuring_q, measuring_d;
   // Whether each channel samples on its next turn (its word's frames left are 0 then), kept
   // beside the RAM: the sample strobe, which the whole receive path waits on, comes from a
   // register, not through the RAM's word.
-  logic [Slots-1:0]     sample_next_q, sample_next_d;
+  logic [Channels-1:0]  sample_next_q, sample_next_d;
   (* ram_style = "block" *)
-  logic [WordWidth-1:0] words [Slots];
+  logic [WordWidth-1:0] words [Channels];
   logic [WordWidth-1:0] word_q;
+  assign {turn_valid, turn_channel} = turn_of(slot_d);
 
   // The channel's figures (autobaud_slots.svh).
   logic [PhaseWidth-1:0] inc, modulo, quarter, three_quarters, half_less_inc;
@@ -79,6 +90,7 @@ module autobaud_shared #(
   // passes it when the line rose after the character's end (autobaud_channel.v).
   localparam int EndWidth = (IdleWidth > TimeWidth ? IdleWidth : TimeWidth) + 1;
   logic [EndWidth-1:0]   tsyn_past_end;
+  logic [PeriodWidth-1:0] sample_period;
 
   // The table's widths.
   localparam int P = PhaseWidth;
@@ -87,17 +99,10 @@ module autobaud_shared #(
   localparam int T = TimeWidth;
   localparam int F = FrameWidth;
   localparam int E = EndWidth;
+  localparam int Q = PeriodWidth;
+  localparam int C = ChanWidth;
 
-  always_comb begin
-    inc = '0; modulo = '0; quarter = '0; three_quarters = '0; half_less_inc = '0;
-    two_inc = '0; modulo_less_inc = '0; modulo_less_two_inc = '0; glitch = '0;
-    edge_reset = '0; tsyn = '0; tsyn_less_one = '0; to_middle = '0; middle_to_end = '0;
-    start_bit = '0; frames_less_one = '0; tsyn_past_end = '0;
-    case (slot_q)
 `include "autobaud_slots.svh"
-      default: ;
-    endcase
-  end
 
   logic [StateWidth-1:0] state, state_next, reset_state;
   logic [FrameWidth-1:0] frames_left, frames_next;
@@ -106,37 +111,37 @@ module autobaud_shared #(
   logic [PendWidth-1:0]  cancel_left;
   assign cancel_left_o = PendOutWidth'(cancel_left);
 
-  // The start age in clocks: the channel in turn samples every Slots clocks times its frames;
-  // both candidates come from its word (the RAM's, early in the clock), and one multiplier
-  // takes the one the step chose.
+  // The start age in clocks: the channel in turn samples every sample_period clocks (the
+  // table's); both candidates come from its word (the RAM's, early in the clock), and one
+  // multiplier takes the one the step chose.
   logic [TimeWidth-1:0]   since_t0;
   logic [AltWidth-1:0]    alt;
   logic                   from_alt;
-  logic [ClocksWidth-1:0] period;
   logic [TimeWidth-1:0]   since_alt;
   logic [TimeWidth-1:0]   since_start;
   assign since_alt      = since_t0 - TimeWidth'(alt);
-  assign period         = ClocksWidth'(Slots) * (ClocksWidth'(frames_less_one) + 1'b1);
   assign since_start    = from_alt ? since_alt : since_t0;
-  assign start_clocks_o = ClocksWidth'(since_start) * period;
+  assign start_clocks_o = ClocksWidth'(since_start) * ClocksWidth'(sample_period);
   logic [IdleWidth-1:0]   high_left;
   assign rose_after_end_o = EndWidth'(high_left) + EndWidth'(since_start) > tsyn_past_end;
 
   assign reset_state = {1'b1, edge_reset, PendWidth'(0), tsyn, tsyn, 1'b0, TimeWidth'(0),
                         TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset, ReaderReset};
-  assign {frames_left, state} = fresh_q[slot_q] ? {FrameWidth'(0), reset_state} : word_q;
-  assign sample      = sample_next_q[slot_q];
+  assign {frames_left, state} = fresh_q[channel_q] ? {FrameWidth'(0), reset_state} : word_q;
+  assign sample      = turn_q && sample_next_q[channel_q];
   assign frames_next = sample ? frames_less_one : frames_left - 1'b1;
-  assign heard       = heard_i[slot_q];
+  assign heard       = heard_i[channel_q];
 
   always_comb begin
     slot_d = slot_q == SlotWidth'(Slots - 1) ? '0 : slot_q + 1'b1;
     fresh_d = fresh_q;
-    fresh_d[slot_q] = 1'b0;
     measuring_d = measuring_q;
-    measuring_d[slot_q] = measuring_next;
     sample_next_d = sample_next_q;
-    sample_next_d[slot_q] = frames_next == '0;
+    if (turn_q) begin
+      fresh_d[channel_q] = 1'b0;
+      measuring_d[channel_q] = measuring_next;
+      sample_next_d[channel_q] = frames_next == '0;
+    end
   end
 
   // The step's other view of the measuring flag is for the other caller.
@@ -178,27 +183,30 @@ module autobaud_shared #(
   );
   /* verilator lint_on PINCONNECTEMPTY */
 
-  for (genvar s = 0; s < Slots; s++) begin : g_decisions
-    assign detect_o[s] = detect && slot_q == SlotWidth'(s);
-    assign reject_o[s] = reject && slot_q == SlotWidth'(s);
-    assign samples_o[s] = sample && slot_q == SlotWidth'(s);
+  for (genvar c = 0; c < Channels; c++) begin : g_decisions
+    assign detect_o[c] = turn_q && detect && channel_q == ChanWidth'(c);
+    assign reject_o[c] = turn_q && reject && channel_q == ChanWidth'(c);
+    assign samples_o[c] = sample && channel_q == ChanWidth'(c);
   end
   assign measuring_o = measuring_q;
 
-  // The RAM: written and read every clock, never at the same word.
+  // The RAM: written on each turn and read every clock, never at the same word.
   always_ff @(posedge clk_i) begin
-    words[slot_q] <= {frames_next, state_next};
-    word_q <= words[slot_d];
+    if (turn_q) words[channel_q] <= {frames_next, state_next};
+    word_q <= words[turn_channel];
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
       slot_q      <= '0;
+      {turn_q, channel_q} <= turn_of('0);
       fresh_q     <= '1;
       measuring_q <= '0;
       sample_next_q <= '1;
     end else begin
       slot_q      <= slot_d;
+      turn_q      <= turn_valid;
+      channel_q   <= turn_channel;
       fresh_q     <= fresh_d;
       measuring_q <= measuring_d;
       sample_next_q <= sample_next_d;

@@ -802,7 +802,7 @@ fn pinned_waveforms() {
     assert_eq!(exchange, PINNED_12M, "exchange at 12M");
 }
 
-const PINNED_LOCK: &str = "1ca406ee7bc752078d37405f7f09f6ed290dcab3987333dc398137f8d2f4e84e";
+const PINNED_LOCK: &str = "a65dfebf0a8c05804f5edbc16e0c7ea1facfbbb18693231ec9984385fa716501";
 const PINNED_12M: &str = "da5ab95b424373ead6a5e06e5716835b0cbd8675f8bc0627c904c3eedf200af8";
 
 /// Found by `PROPTEST_CASES=20000` (issue 31): fast mode counted one search rejection fewer

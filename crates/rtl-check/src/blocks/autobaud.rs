@@ -84,11 +84,52 @@ fn widths(f: &ChannelFigures) -> [u32; 5] {
     ]
 }
 
-/// Whether the channel of rate `r` takes its turn in autobaud_shared.v: its period is a whole
-/// number of the shared frame's clocks.
+/// Whether the channel of rate `r` takes its turn in autobaud_shared.v: it samples every few
+/// clocks (the ones that sample every clock have hardware of their own).
 fn is_shared(schedule: &Schedule, r: usize) -> bool {
+    schedule.period[r] > 1
+}
+
+/// The clocks between a shared channel's turns: its period if that divides the frame (turns
+/// in several slots of each frame), else one frame (its period is then a whole number of them).
+fn turn_period(schedule: &Schedule, r: usize) -> u64 {
     let period = schedule.period[r];
-    period > 1 && period.is_multiple_of(SHARED_SLOTS)
+    if SHARED_SLOTS.is_multiple_of(period) {
+        period
+    } else {
+        assert!(
+            period.is_multiple_of(SHARED_SLOTS),
+            "a shared channel's period divides the frame or is a whole number of frames"
+        );
+        SHARED_SLOTS
+    }
+}
+
+/// The shared datapath's turns: for each clock of the frame, the channel whose turn it is
+/// (`None`: a free slot). Panics where two channels would share a slot.
+fn turns(schedule: &Schedule, shared: &[usize]) -> Vec<Option<usize>> {
+    let mut turns = vec![None; SHARED_SLOTS as usize];
+    for (c, &r) in shared.iter().enumerate() {
+        let every = turn_period(schedule, r);
+        // The first sample is on the channel's first turn.
+        assert!(schedule.phase[r] < every, "a shared channel samples on its first turn");
+        let mut slot = schedule.phase[r];
+        while slot < SHARED_SLOTS {
+            let turn = &mut turns[slot as usize];
+            assert!(turn.is_none(), "two shared channels in slot {slot}");
+            *turn = Some(c);
+            slot += every;
+        }
+    }
+    // The RAM reads a channel's word a clock before its turn, after the last turn's write.
+    for slot in 0..turns.len() {
+        let next = turns[(slot + 1) % turns.len()];
+        assert!(
+            turns[slot].is_none() || turns[slot] != next,
+            "a shared channel with two turns in a row (slot {slot})"
+        );
+    }
+    turns
 }
 
 const SVH_HEADER: &str = "// Written by crates/rtl-check (`blocks::autobaud`) from\n\
@@ -173,39 +214,41 @@ pub fn channels_svh() -> String {
     s
 }
 
-/// autobaud_shared.v's instance for the channels `shared` (rates 0.. in order, each in the
-/// slot of its index), at the widest of their widths, its decision fanned out to theirs.
+/// autobaud_shared.v's instance for the channels `shared` (the slowest rates, in order: the
+/// datapath's channel c is the rate of index c), at the widest of their widths, its decision
+/// fanned out to theirs.
 fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> String {
     let slots = SHARED_SLOTS as usize;
+    let channels = shared.len();
     assert!(
-        shared
-            .iter()
-            .enumerate()
-            .all(|(i, &r)| i == r && schedule.phase[r] == r as u64)
-            && shared.len() == slots,
-        "the shared channels are the {slots} slowest rates, each in the slot of its index"
+        shared.iter().enumerate().all(|(i, &r)| i == r),
+        "the shared channels are the slowest rates, the channel of index c the rate of index c"
     );
+    // Every slot's owner is known before the instance is written.
+    let _ = turns(schedule, shared);
     let mut w = [0u32; 5];
     let mut frames = 0;
+    let mut period = 0;
     for &r in shared {
         let f = search.channel_figures(Baud::ALL[r]);
         for (m, x) in w.iter_mut().zip(widths(&f)) {
             *m = (*m).max(x);
         }
-        frames = frames.max(f.period / SHARED_SLOTS);
+        frames = frames.max(f.period / turn_period(schedule, r));
+        period = period.max(f.period);
     }
     let [phase_w, idle_w, pend_w, time_w, alt_w] = w;
-    let last = slots - 1;
+    let last = channels - 1;
     let mut s = format!(
-        "\n    // 9.6k to 500k, taking turns: slot s is the rate of index s (autobaud_slots.svh)\n    \
+        "\n    // {} to {}, taking turns in a frame of {slots} clocks (autobaud_slots.svh)\n    \
          logic [1:0] shared_code;\n    logic [7:0] shared_byte;\n    \
          logic [ClocksWidth-1:0] shared_clocks;\n    \
          logic [PendWidth-1:0] shared_cancel;\n    \
          logic shared_rose;\n    \
          autobaud_shared #(\n      \
-         .Slots({slots}), .PhaseWidth({phase_w}), .IdleWidth({idle_w}), .PendWidth({pend_w}),\n      \
-         .TimeWidth({time_w}), .AltWidth({alt_w}), .FrameWidth({}),\n      \
-         .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)\n    \
+         .Slots({slots}), .Channels({channels}), .PhaseWidth({phase_w}), .IdleWidth({idle_w}),\n      \
+         .PendWidth({pend_w}), .TimeWidth({time_w}), .AltWidth({alt_w}), .FrameWidth({}),\n      \
+         .PeriodWidth({}), .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)\n    \
          ) u_shared (\n      \
          .clk_i, .rst_ni, .level_i,\n      \
          .heard_i(heard[{last}:0]), .heard_any_i(heard_valid_i), .detect_o(detect[{last}:0]),\n      \
@@ -213,69 +256,104 @@ fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> 
          .start_clocks_o(shared_clocks), .cancel_left_o(shared_cancel),\n      \
          .rose_after_end_o(shared_rose),\n      \
          .samples_o(samples_o[{last}:0]), .measuring_o(measuring_o[{last}:0])\n    );\n    \
-         for (genvar r = 0; r < {slots}; r++) begin : g_shared\n      \
+         for (genvar r = 0; r < {channels}; r++) begin : g_shared\n      \
          assign reject_code[r * 2 +: 2] = shared_code;\n      \
          assign bytes[r * 8 +: 8] = shared_byte;\n      \
          assign start_clocks[r * ClocksWidth +: ClocksWidth] = shared_clocks;\n      \
          assign cancel_left[r * PendWidth +: PendWidth] = shared_cancel;\n      \
          assign rose_after_end[r] = shared_rose;\n    \
          end\n",
+        Baud::ALL[shared[0]],
+        Baud::ALL[last],
         bits_for(frames - 1).max(1),
+        bits_for(period),
     );
     s.push('\n');
     s
 }
 
-/// The shared channels' figures (`gateware/rtl/autobaud_slots.svh`): autobaud_shared.v's
-/// table, one case item a slot, in the oversampled build's channels.
+/// The shared channels' turns and figures (`gateware/rtl/autobaud_slots.svh`):
+/// autobaud_shared.v's two tables, the channel whose turn each clock of the frame is, and the
+/// figures of each channel, in the oversampled build.
 pub fn slots_svh() -> String {
     let schedule = schedule(true);
     let search = AutoBaud::sampled(DEFAULT_CLOCK_HZ, schedule);
+    let shared: Vec<usize> = (0..Baud::ALL.len())
+        .filter(|&r| is_shared(&schedule, r))
+        .collect();
     let mut s = String::from(SVH_HEADER);
     s.push_str(
-        "// autobaud_shared.v's table: the figures of the channel in turn, at its widths (P phase,\n\
-         // G pending edge, I idle line, T measurement, F frames, E an idle line and a measurement\n\
-         // added).\n",
+        "// autobaud_shared.v's tables: the channel whose turn a clock of the frame is (turn_of:\n\
+         // {a channel's turn, which}), and the figures of the channel in turn, at its\n\
+         // widths (P phase, G pending edge, I idle line, T measurement, F frames, E an idle line\n\
+         // and a measurement added, Q the sample period in clocks).\n\
+         function automatic logic [C:0] turn_of(input logic [SlotWidth-1:0] slot);\n  \
+         case (slot)\n",
     );
-    for r in (0..Baud::ALL.len()).filter(|&r| is_shared(&schedule, r)) {
+    for (slot, turn) in turns(&schedule, &shared).iter().enumerate() {
+        match turn {
+            Some(c) => {
+                let _ = writeln!(
+                    s,
+                    "    {slot}: turn_of = {{1'b1, C'({c})}}; // {}",
+                    Baud::ALL[shared[*c]]
+                );
+            }
+            None => {
+                let _ = writeln!(s, "    {slot}: turn_of = '0; // free");
+            }
+        }
+    }
+    s.push_str("    default: turn_of = '0;\n  endcase\nendfunction\n\n");
+    s.push_str(
+        "always_comb begin\n  \
+         inc = '0; modulo = '0; quarter = '0; three_quarters = '0; half_less_inc = '0;\n  \
+         two_inc = '0; modulo_less_inc = '0; modulo_less_two_inc = '0; glitch = '0;\n  \
+         edge_reset = '0; tsyn = '0; tsyn_less_one = '0; to_middle = '0; middle_to_end = '0;\n  \
+         start_bit = '0; frames_less_one = '0; tsyn_past_end = '0; sample_period = '0;\n  \
+         case (channel_q)\n",
+    );
+    for (c, &r) in shared.iter().enumerate() {
         let baud = Baud::ALL[r];
         let f = search.channel_figures(baud);
-        let c = f.reader;
+        let rd = f.reader;
         let n = sample_figures(&f);
         // The line's last edge is taken as at tick 0: the channel's first sample is within a
         // glitch of it, and the Glitch-th past tick 0 is the last that is.
         let edge_reset = if f.phase == 0 { n.glitch + 1 } else { n.glitch };
         let _ = write!(
             s,
-            "      // {baud}: a sample every {} clocks from tick {}\n      \
-             {r}: begin\n        \
-             inc = P'({}); modulo = P'({}); quarter = P'({}); three_quarters = P'({});\n        \
-             half_less_inc = P'({}); two_inc = (P + 1)'({});\n        \
-             modulo_less_inc = P'({}); modulo_less_two_inc = P'({});\n        \
-             glitch = G'({}); edge_reset = G'({edge_reset}); tsyn = I'({}); tsyn_less_one = I'({});\n        \
-             to_middle = T'({}); middle_to_end = T'({}); start_bit = T'({});\n        \
-             frames_less_one = F'({}); tsyn_past_end = E'({});\n      \
+            "    // {baud}: a sample every {} clocks from tick {}\n    \
+             {c}: begin\n      \
+             inc = P'({}); modulo = P'({}); quarter = P'({}); three_quarters = P'({});\n      \
+             half_less_inc = P'({}); two_inc = (P + 1)'({});\n      \
+             modulo_less_inc = P'({}); modulo_less_two_inc = P'({});\n      \
+             glitch = G'({}); edge_reset = G'({edge_reset}); tsyn = I'({}); tsyn_less_one = I'({});\n      \
+             to_middle = T'({}); middle_to_end = T'({}); start_bit = T'({});\n      \
+             frames_less_one = F'({}); tsyn_past_end = E'({}); sample_period = Q'({});\n    \
              end\n",
             f.period,
             f.phase,
-            c.inc,
-            c.modulo,
-            c.quarter,
-            c.three_quarters,
-            c.half_less_inc,
-            c.two_inc,
-            c.modulo_less_inc,
-            c.modulo_less_two_inc,
+            rd.inc,
+            rd.modulo,
+            rd.quarter,
+            rd.three_quarters,
+            rd.half_less_inc,
+            rd.two_inc,
+            rd.modulo_less_inc,
+            rd.modulo_less_two_inc,
             n.glitch,
             n.tsyn,
             n.tsyn - 1,
             n.stop_middle - 1,
             n.stop_end - n.stop_middle - 1,
             f.start_bit_clocks,
-            f.period / SHARED_SLOTS - 1,
+            f.period / turn_period(&schedule, r) - 1,
             n.tsyn - 1 + n.stop_end,
+            f.period,
         );
     }
+    s.push_str("    default: ;\n  endcase\nend\n");
     s
 }
 

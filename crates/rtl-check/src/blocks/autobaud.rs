@@ -673,7 +673,7 @@ pub fn autobaud_cases(quick: bool, oversampled: bool) -> Vec<Case> {
     }
     // Glitches late in the start bit, as hundredths of a bit (at, length).
     let late: &[(u64, u64)] = if quick {
-        &[(80, 10), (80, 20)]
+        &[(76, 20), (86, 10)]
     } else {
         &[
             (64, 30),

@@ -5,25 +5,25 @@
 
   if (Oversampled != 0) begin : g_oversampled
 
-    // 9.6k to 3M, taking turns in a frame of 24 clocks (autobaud_slots.svh)
+    // 9.6k to 1.5M, taking turns in a frame of 24 clocks (autobaud_slots.svh)
     logic [1:0] shared_code;
     logic [7:0] shared_byte;
     logic [ClocksWidth-1:0] shared_clocks;
     logic [PendWidth-1:0] shared_cancel;
     logic shared_rose;
     autobaud_shared #(
-      .Slots(24), .Channels(8), .PhaseWidth(7), .IdleWidth(10),
+      .Slots(24), .Channels(7), .PhaseWidth(7), .IdleWidth(10),
       .PendWidth(4), .TimeWidth(9), .AltWidth(5), .FrameWidth(4),
       .PeriodWidth(8), .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
     ) u_shared (
       .clk_i, .rst_ni, .level_i,
-      .heard_i(heard[7:0]), .heard_any_i(heard_valid_i), .detect_o(detect[7:0]),
-      .reject_o(reject[7:0]), .reject_code_o(shared_code), .byte_o(shared_byte),
+      .heard_i(heard[6:0]), .heard_any_i(heard_valid_i), .detect_o(detect[6:0]),
+      .reject_o(reject[6:0]), .reject_code_o(shared_code), .byte_o(shared_byte),
       .start_clocks_o(shared_clocks), .cancel_left_o(shared_cancel),
       .rose_after_end_o(shared_rose),
-      .samples_o(samples_o[7:0]), .measuring_o(measuring_o[7:0])
+      .samples_o(samples_o[6:0]), .measuring_o(measuring_o[6:0])
     );
-    for (genvar r = 0; r < 8; r++) begin : g_shared
+    for (genvar r = 0; r < 7; r++) begin : g_shared
       assign reject_code[r * 2 +: 2] = shared_code;
       assign bytes[r * 8 +: 8] = shared_byte;
       assign start_clocks[r * ClocksWidth +: ClocksWidth] = shared_clocks;
@@ -31,6 +31,24 @@
       assign rose_after_end[r] = shared_rose;
     end
 
+
+    // 3M, a sample every 1 clock(s) from tick 0
+    autobaud_channel #(
+      .PhaseWidth(5), .Inc(1), .Modulo(16), .Quarter(4), .ThreeQuarters(12),
+      .HalfLessInc(7), .TwoInc(2), .ModuloLessInc(15), .ModuloLessTwoInc(14),
+      .Glitch(7), .Tsyn(520), .StopMiddle(168), .StopEnd(176),
+      .StartBitClocks(16), .Period(1), .Phase(0),
+      .IdleWidth(10), .PendWidth(4), .TimeWidth(8), .AltWidth(5),
+      .ClocksWidth(ClocksWidth), .PendOutWidth(PendWidth)
+    ) u_channel_7 (
+      .clk_i, .rst_ni, .level_i,
+      .heard_i(heard[7]), .heard_any_i(heard_valid_i), .detect_o(detect[7]),
+      .reject_o(reject[7]), .reject_code_o(reject_code[7 * 2 +: 2]),
+      .byte_o(bytes[7 * 8 +: 8]),
+      .start_clocks_o(start_clocks[7 * ClocksWidth +: ClocksWidth]),
+      .cancel_left_o(cancel_left[7 * PendWidth +: PendWidth]), .sample_o(samples_o[7]),
+      .rose_after_end_o(rose_after_end[7]), .measuring_o(measuring_o[7])
+    );
 
     // 6M, a sample every 1 clock(s) from tick 0
     autobaud_channel #(

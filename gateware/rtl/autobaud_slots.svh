@@ -7,27 +7,27 @@
 // and a measurement added, Q the sample period in clocks).
 function automatic logic [C:0] turn_of(input logic [SlotWidth-1:0] slot);
   case (slot)
-    0: turn_of = {1'b1, C'(7)}; // 3M
+    0: turn_of = {1'b1, C'(6)}; // 1.5M
     1: turn_of = {1'b1, C'(5)}; // 500k
     2: turn_of = {1'b1, C'(6)}; // 1.5M
     3: turn_of = {1'b1, C'(4)}; // 187.5k
-    4: turn_of = {1'b1, C'(7)}; // 3M
+    4: turn_of = {1'b1, C'(6)}; // 1.5M
     5: turn_of = {1'b1, C'(3)}; // 93.75k
     6: turn_of = {1'b1, C'(6)}; // 1.5M
     7: turn_of = {1'b1, C'(5)}; // 500k
-    8: turn_of = {1'b1, C'(7)}; // 3M
+    8: turn_of = {1'b1, C'(6)}; // 1.5M
     9: turn_of = {1'b1, C'(2)}; // 45.45k
     10: turn_of = {1'b1, C'(6)}; // 1.5M
     11: turn_of = {1'b1, C'(1)}; // 19.2k
-    12: turn_of = {1'b1, C'(7)}; // 3M
+    12: turn_of = {1'b1, C'(6)}; // 1.5M
     13: turn_of = {1'b1, C'(5)}; // 500k
     14: turn_of = {1'b1, C'(6)}; // 1.5M
     15: turn_of = {1'b1, C'(4)}; // 187.5k
-    16: turn_of = {1'b1, C'(7)}; // 3M
+    16: turn_of = {1'b1, C'(6)}; // 1.5M
     17: turn_of = {1'b1, C'(0)}; // 9.6k
     18: turn_of = {1'b1, C'(6)}; // 1.5M
     19: turn_of = {1'b1, C'(5)}; // 500k
-    20: turn_of = {1'b1, C'(7)}; // 3M
+    20: turn_of = {1'b1, C'(6)}; // 1.5M
     21: turn_of = '0; // free
     22: turn_of = {1'b1, C'(6)}; // 1.5M
     23: turn_of = '0; // free
@@ -95,23 +95,14 @@ always_comb begin
       to_middle = T'(167); middle_to_end = T'(7); start_bit = T'(16);
       frames_less_one = F'(0); tsyn_past_end = E'(695); sample_period = Q'(6);
     end
-    // 1.5M: a sample every 4 clocks from tick 2
+    // 1.5M: a sample every 2 clocks from tick 0
     6: begin
-      inc = P'(1); modulo = P'(8); quarter = P'(2); three_quarters = P'(6);
-      half_less_inc = P'(3); two_inc = (P + 1)'(2);
-      modulo_less_inc = P'(7); modulo_less_two_inc = P'(6);
-      glitch = G'(3); edge_reset = G'(3); tsyn = I'(260); tsyn_less_one = I'(259);
-      to_middle = T'(83); middle_to_end = T'(3); start_bit = T'(8);
-      frames_less_one = F'(0); tsyn_past_end = E'(347); sample_period = Q'(4);
-    end
-    // 3M: a sample every 4 clocks from tick 0
-    7: begin
-      inc = P'(1); modulo = P'(4); quarter = P'(1); three_quarters = P'(3);
-      half_less_inc = P'(1); two_inc = (P + 1)'(2);
-      modulo_less_inc = P'(3); modulo_less_two_inc = P'(2);
-      glitch = G'(1); edge_reset = G'(2); tsyn = I'(130); tsyn_less_one = I'(129);
-      to_middle = T'(41); middle_to_end = T'(1); start_bit = T'(4);
-      frames_less_one = F'(0); tsyn_past_end = E'(173); sample_period = Q'(4);
+      inc = P'(1); modulo = P'(16); quarter = P'(4); three_quarters = P'(12);
+      half_less_inc = P'(7); two_inc = (P + 1)'(2);
+      modulo_less_inc = P'(15); modulo_less_two_inc = P'(14);
+      glitch = G'(7); edge_reset = G'(8); tsyn = I'(520); tsyn_less_one = I'(519);
+      to_middle = T'(167); middle_to_end = T'(7); start_bit = T'(16);
+      frames_less_one = F'(0); tsyn_past_end = E'(695); sample_period = Q'(2);
     end
     default: ;
   endcase

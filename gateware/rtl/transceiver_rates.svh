@@ -22,8 +22,8 @@
       4'd3: rate_reader = {16'd5640, 16'd5376, 16'd528, PW'(58), PW'(61), PW'(29), PW'(48), PW'(16), PW'(64), (PW + 1)'(6), PW'(3)}; // 93.75k
       4'd4: rate_reader = {16'd2820, 16'd2688, 16'd264, PW'(58), PW'(61), PW'(29), PW'(48), PW'(16), PW'(64), (PW + 1)'(6), PW'(3)}; // 187.5k
       4'd5: rate_reader = {16'd1056, 16'd1008, 16'd96, PW'(14), PW'(15), PW'(7), PW'(12), PW'(4), PW'(16), (PW + 1)'(2), PW'(1)}; // 500k
-      4'd6: rate_reader = {16'd352, 16'd336, 16'd32, PW'(6), PW'(7), PW'(3), PW'(6), PW'(2), PW'(8), (PW + 1)'(2), PW'(1)}; // 1.5M
-      4'd7: rate_reader = {16'd176, 16'd168, 16'd16, PW'(2), PW'(3), PW'(1), PW'(3), PW'(1), PW'(4), (PW + 1)'(2), PW'(1)}; // 3M
+      4'd6: rate_reader = {16'd352, 16'd336, 16'd32, PW'(14), PW'(15), PW'(7), PW'(12), PW'(4), PW'(16), (PW + 1)'(2), PW'(1)}; // 1.5M
+      4'd7: rate_reader = {16'd176, 16'd168, 16'd16, PW'(14), PW'(15), PW'(7), PW'(12), PW'(4), PW'(16), (PW + 1)'(2), PW'(1)}; // 3M
       4'd8: rate_reader = {16'd88, 16'd84, 16'd8, PW'(6), PW'(7), PW'(3), PW'(6), PW'(2), PW'(8), (PW + 1)'(2), PW'(1)}; // 6M
       4'd9: rate_reader = {16'd44, 16'd42, 16'd4, PW'(2), PW'(3), PW'(1), PW'(3), PW'(1), PW'(4), (PW + 1)'(2), PW'(1)}; // 12M
       default: rate_reader = '0;
@@ -70,8 +70,8 @@
       4'd3: rate_glitch = PendWidth'(9); // 93.75k
       4'd4: rate_glitch = PendWidth'(9); // 187.5k
       4'd5: rate_glitch = PendWidth'(7); // 500k
-      4'd6: rate_glitch = PendWidth'(3); // 1.5M
-      4'd7: rate_glitch = PendWidth'(1); // 3M
+      4'd6: rate_glitch = PendWidth'(7); // 1.5M
+      4'd7: rate_glitch = PendWidth'(7); // 3M
       4'd8: rate_glitch = PendWidth'(3); // 6M
       4'd9: rate_glitch = PendWidth'(1); // 12M
       default: rate_glitch = '0;

@@ -37,8 +37,8 @@
 //! show while a rate is known ([`AutoBaud::quiet_for`], [`AutoBaud::retire`]).
 //!
 //! A channel may sample the line every few clocks instead of every clock
-//! ([`AutoBaud::sampled`] on a [`Schedule`]; [`OVERSAMPLED`]: 4 to 22 samples a bit, as a UART
-//! oversamples, the eight slowest channels taking turns in one datapath): it then sees a change
+//! ([`AutoBaud::sampled`] on a [`Schedule`]; [`OVERSAMPLED`]: 16 to 22 samples a bit, as a UART
+//! oversamples, the seven slowest channels taking turns in one datapath): it then sees a change
 //! of the line at its next sample, or not at all if the line is back before it, and counts its
 //! figures in samples, which makes its registers narrow in the FPGA. Fast mode stops at each
 //! such sample. [`AutoBaud::new`] samples every clock.
@@ -215,18 +215,18 @@ pub const EVERY_CLOCK: Schedule = Schedule {
     phase: [0; RATES],
 };
 
-/// Clocks of the frame in which the eight slowest channels take turns ([`OVERSAMPLED`]).
+/// Clocks of the frame in which the seven slowest channels take turns ([`OVERSAMPLED`]).
 pub const SHARED_SLOTS: u64 = 24;
 
-/// The search as an FPGA builds it (README "Gateware"): the eight channels up to 3 Mbit/s take
-/// turns in one datapath, one a clock in a frame of [`SHARED_SLOTS`] clocks (3M and 1.5M every
-/// fourth clock, 500k every sixth, 187.5k every twelfth, the four slowest once a frame, sampling
-/// on every few of their turns; two slots are free), with 4 to 22 samples a bit at 48 MHz (9.6k
-/// and 19.2k 20.8, 45.45k 22, 93.75k and 187.5k 21.3, 500k 16, 1.5M 8, 3M 4); the two fastest
-/// sample every clock (8 and 4 a bit), each in hardware of its own.
+/// The search as an FPGA builds it (README "Gateware"): the seven channels up to 1.5 Mbit/s
+/// take turns in one datapath, one a clock in a frame of [`SHARED_SLOTS`] clocks (1.5M every
+/// other clock, 500k every sixth, 187.5k every twelfth, the four slowest once a frame, sampling
+/// on every few of their turns; two slots are free), with 16 to 22 samples a bit at 48 MHz
+/// (9.6k and 19.2k 20.8, 45.45k 22, 93.75k and 187.5k 21.3, 500k and 1.5M 16); the three
+/// fastest sample every clock (16, 8 and 4 a bit), each in hardware of its own.
 pub const OVERSAMPLED: Schedule = Schedule {
-    period: [240, 120, 48, 24, 12, 6, 4, 4, 1, 1],
-    phase: [17, 11, 9, 5, 3, 1, 2, 0, 0, 0],
+    period: [240, 120, 48, 24, 12, 6, 2, 1, 1, 1],
+    phase: [17, 11, 9, 5, 3, 1, 0, 0, 0, 0],
 };
 
 /// One channel's fixed figures, as the RTL takes them as parameters
@@ -885,7 +885,7 @@ mod tests {
     #[test]
     fn a_pulse_between_samples_is_not_seen() {
         let ab = AutoBaud::sampled(DEFAULT_CLOCK_HZ, OVERSAMPLED);
-        // 500k every sixth clock; 1.5M every fourth, in between.
+        // 500k every sixth clock; 1.5M every other, in between.
         let (r, other) = (5, 6);
         let (period, phase) = (OVERSAMPLED.period[r], OVERSAMPLED.phase[r]);
         let pulse = |from: Tick, len: Tick| {

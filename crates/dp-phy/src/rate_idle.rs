@@ -15,7 +15,7 @@
 //! tick, and counts no longer than the channel, from where the receiver starts.
 //!
 //! Why: the gateware's search keeps those registers as the samples they still lack of TSYN,
-//! the eight slowest channels in block RAM, read only in their turn; the transceiver's top
+//! the seven slowest channels in block RAM, read only in their turn; the transceiver's top
 //! keeps this copy for the rate it is on and needs nothing of the search's channels but a
 //! detection (README "Gateware").
 

@@ -479,9 +479,7 @@ pub fn edge_rx_cases(quick: bool) -> Vec<Case> {
 /// The cases, and what their model went through altogether.
 fn cases_seen(quick: bool) -> (Vec<Case>, Seen) {
     let mut all = Seen::default();
-    // A seed whose quick set makes every kind of character (a break is rare on random lines;
-    // `the_quick_cases_cover_the_receiver` holds it).
-    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    let mut rng = ChaCha8Rng::seed_from_u64(27);
     let runs = if quick { 1 } else { 4 };
     let mut cases = Vec::new();
     for baud in Baud::ALL {
@@ -519,4 +517,3 @@ mod tests {
         assert!(seen.clears > 0);
     }
 }
-

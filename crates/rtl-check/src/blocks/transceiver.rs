@@ -509,15 +509,13 @@ fn relock_fall_case(
     )
 }
 
-/// [`relock_fall_case`]s (short: the quick set has them all): the lock at 12M and at 500k,
+/// [`relock_fall_case`]s (short: the quick set has them all): the lock at 12M and at 3M,
 /// each trial ended both ways, with the pulse at the offsets around the verdict that put its
 /// fall on the verdict's clock and next to it.
 fn relock_fall_cases() -> Vec<(Case, Stats)> {
     let pairs = [
         (Baud::B12000000, Baud::B187500),
-        // A lock sampled every few clocks: the verdict's clock is one of its samples (the
-        // trial's rate's samples decide it, and 93.75k's fall on 500k's).
-        (Baud::B500000, Baud::B93750),
+        (Baud::B3000000, Baud::B45450),
     ];
     let mut out = Vec::new();
     for (i, &(lock, other)) in pairs.iter().enumerate() {

@@ -25,7 +25,7 @@ use rand_chacha::ChaCha8Rng;
 use std::fmt::Write as _;
 
 /// The search as the transceiver builds it (`oversampled`: the channels up to 1.5 Mbit/s
-/// sampling the line every few clocks, the six slowest taking turns in autobaud_shared.v), or
+/// sampling the line every few clocks, the seven slowest taking turns in autobaud_shared.v), or
 /// with every channel sampling every clock.
 pub fn autobaud(oversampled: bool) -> Block {
     Block {
@@ -137,7 +137,7 @@ const SVH_HEADER: &str = "// Written by crates/rtl-check (`blocks::autobaud`) fr
     // samples. A test holds this file equal to the model's figures; do not edit.\n";
 
 /// The channels' instances with the model's figures (`gateware/rtl/autobaud_channels.svh`):
-/// one set sampling every clock, one oversampling (the six slowest in autobaud_shared.v),
+/// one set sampling every clock, one oversampling (the seven slowest in autobaud_shared.v),
 /// chosen by autobaud.v's `Oversampled`.
 pub fn channels_svh() -> String {
     let mut s = String::from(SVH_HEADER);

@@ -63,8 +63,8 @@ pub fn transceiver() -> Block {
 }
 
 /// The search's schedule repeats every 2,640 clocks (every channel's sample period and the
-/// shared datapath's six turns divide it): a run that starts on a multiple of it samples the
-/// line as one from tick 0 does.
+/// shared datapath's frame of turns divide it: `the_near_wrap_reset_is_on_the_schedule`): a
+/// run that starts on a multiple of it samples the line as one from tick 0 does.
 const SCHEDULE_CLOCKS: u64 = 2640;
 
 /// The tick [`transceiver_near_wrap`] comes out of reset at: 5,280,000 clocks (110 ms) or so before
@@ -906,6 +906,18 @@ mod tests {
                 case.name
             );
         }
+    }
+
+    /// The near-wrap build comes out of reset on a clock where every channel of the search and
+    /// the shared datapath's frame begin again, as they do at tick 0.
+    #[test]
+    fn the_near_wrap_reset_is_on_the_schedule() {
+        let schedule = dp_phy::autobaud::OVERSAMPLED;
+        assert_eq!(SCHEDULE_CLOCKS % dp_phy::autobaud::SHARED_SLOTS, 0);
+        for period in schedule.period {
+            assert_eq!(SCHEDULE_CLOCKS % period, 0, "period {period}");
+        }
+        assert_eq!(NEAR_WRAP % SCHEDULE_CLOCKS, 0);
     }
 
     /// The rates' figures in the gateware are the model's. After a change of the model's

@@ -112,7 +112,10 @@ fn turns(schedule: &Schedule, shared: &[usize]) -> Vec<Option<usize>> {
     for (c, &r) in shared.iter().enumerate() {
         let every = turn_period(schedule, r);
         // The first sample is on the channel's first turn.
-        assert!(schedule.phase[r] < every, "a shared channel samples on its first turn");
+        assert!(
+            schedule.phase[r] < every,
+            "a shared channel samples on its first turn"
+        );
         let mut slot = schedule.phase[r];
         while slot < SHARED_SLOTS {
             let turn = &mut turns[slot as usize];

@@ -73,7 +73,11 @@ module autobaud_shared #(
   // beside the RAM: the sample strobe, which the whole receive path waits on, comes from a
   // register, not through the RAM's word.
   logic [Channels-1:0]  sample_next_q, sample_next_d;
-  (* ram_style = "block" *)
+  // No channel has two turns in a row (crates/rtl-check refuses such a table), so a word read
+  // for a turn is never the one written on that clock (a free slot's read, of channel 0's
+  // word, goes unused): no_rw_check keeps yosys from adding the flip-flops and multiplexers
+  // that would give a read colliding with a write the old word (about 330 DFF).
+  (* ram_style = "block", no_rw_check *)
   logic [WordWidth-1:0] words [Channels];
   logic [WordWidth-1:0] word_q;
   assign {turn_valid, turn_channel} = turn_of(slot_d);

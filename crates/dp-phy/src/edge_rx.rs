@@ -46,7 +46,7 @@
 //! of the sweep's 1980 cases lock a telegram later for it, all hit by glitches).
 //!
 //! The transceiver's receiver samples the line ([`EdgeRx::sampled`]) on the ticks on which the
-//! search's channel of its rate samples it (`autobaud::OVERSAMPLED`: 16 to 21 samples a bit,
+//! search's channel of its rate samples it (`autobaud::OVERSAMPLED`: 16 to 22 samples a bit,
 //! every clock at 3, 6 and 12 Mbit/s): it sees a change at its next sample, or not at all if
 //! the line is back before it, its readers count samples, and a start is the sample that saw
 //! the fall. So a reader's phase registers are as narrow as the search channel's (7 bits

@@ -163,6 +163,8 @@ struct RtlBench {
     binary: PathBuf,
     work: PathBuf,
     cases: Vec<Case>,
+    /// `target/rtl` held while the bench runs (rtl-check shares it).
+    _lock: std::fs::File,
 }
 
 impl RtlBench {
@@ -171,6 +173,7 @@ impl RtlBench {
         let root = project_root();
         let out = root.join("target/rtl");
         std::fs::create_dir_all(&out)?;
+        let lock = crate::rtl_check::lock_rtl_dir(&out)?;
         let block = blocks::transceiver();
         let binary = verilator::build(&block, &root.join("gateware"), &out)
             .context("building the transceiver's receive path")?;
@@ -187,6 +190,7 @@ impl RtlBench {
             binary,
             work: out.join("phy-bench"),
             cases,
+            _lock: lock,
         })
     }
 

@@ -25,6 +25,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let gateware = root.join("gateware");
     let out = root.join("target/rtl");
     std::fs::create_dir_all(&out)?;
+    let _lock = lock_rtl_dir(&out)?;
 
     // The checker must be able to fail: a transmitter one clock late.
     let late = blocks::uart_tx(true);
@@ -160,6 +161,26 @@ pub fn run(args: &[String]) -> Result<()> {
         bail!("{mismatches} case(s) differ from the model");
     }
     Ok(())
+}
+
+/// Holds `out` (`target/rtl`) for this run: the Verilated builds and the stimulus file there are
+/// shared, and a second run in the same checkout rewrote the stimulus under the first one's
+/// harness (which then stopped: `stimulus ends inside a record`). The lock goes with the file.
+pub(crate) fn lock_rtl_dir(out: &Path) -> Result<std::fs::File> {
+    let path = out.join("lock");
+    let lock =
+        std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+    match lock.try_lock() {
+        Ok(()) => Ok(lock),
+        Err(std::fs::TryLockError::WouldBlock) => bail!(
+            "another rtl-check or phy-bench is using {} in this checkout (its Verilated builds \
+             and stimulus are shared): wait for it to finish",
+            out.display()
+        ),
+        Err(std::fs::TryLockError::Error(e)) => {
+            Err(e).with_context(|| format!("locking {}", path.display()))
+        }
+    }
 }
 
 fn build(block: &Block, gateware: &Path, out: &Path) -> Result<std::path::PathBuf> {

@@ -1,7 +1,7 @@
 // The baud-rate search: dp_phy::autobaud::AutoBaud's twin (crates/dp-phy/src/autobaud.rs),
 // a channel per rate at that rate's constant figures (autobaud_channels.svh, written from the
-// model by crates/rtl-check): in the transceiver's build the six slowest take turns in
-// autobaud_shared.v and the four fastest are an autobaud_channel each; and what the model's
+// model by crates/rtl-check): in the transceiver's build the seven slowest take turns in
+// autobaud_shared.v and the three fastest are an autobaud_channel each; and what the model's
 // clock() returns.
 //
 // Each clock takes the synchronised line (level_i; each channel samples it and sees its changes)

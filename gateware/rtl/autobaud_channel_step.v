@@ -2,7 +2,7 @@
 // without its registers (a ChannelQ of dp_phy::autobaud::AutoBaud with the rate's idle line).
 // The channel's registers come in packed (state_i) and go out as they become at this clock's
 // edge (state_o); its figures come in as inputs. autobaud_channel.v keeps one channel's
-// registers in flip-flops with its figures fixed; autobaud_shared.v keeps six channels' in
+// registers in flip-flops with its figures fixed; autobaud_shared.v keeps seven channels' in
 // block RAM and serves them in turn through one step, their figures from a table.
 //
 // What the registers count is in autobaud_channel.v. The packed state, most significant first:

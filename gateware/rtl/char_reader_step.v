@@ -1,7 +1,7 @@
 // One clock of a character reader: dp_phy::char_reader::CharReader::clock's twin, the logic of
 // char_reader.v without its registers. The reader's registers come in packed (state_i) and go
 // out as they become at this clock's edge (state_o), so one step can serve readers whose
-// registers are kept elsewhere (autobaud_shared.v keeps six channels' in block RAM).
+// registers are kept elsewhere (autobaud_shared.v keeps seven channels' in block RAM).
 //
 // The packed state, most significant first: bit (4), rem (PhaseWidth), lead and lag
 // (PhaseWidth + 1 each), shift (11), tie, glitches (2), pair_open, pair_left (PhaseWidth).

@@ -84,10 +84,12 @@ fn widths(f: &ChannelFigures) -> [u32; 5] {
     ]
 }
 
-/// Whether the channel of rate `r` takes its turn in autobaud_shared.v: it samples every few
-/// clocks (the ones that sample every clock have hardware of their own).
-fn is_shared(schedule: &Schedule, r: usize) -> bool {
-    schedule.period[r] > 1
+/// The rates whose channels take their turns in autobaud_shared.v, slowest first: those that
+/// sample every few clocks (the ones that sample every clock have hardware of their own).
+fn shared_channels(schedule: &Schedule) -> Vec<usize> {
+    (0..Baud::ALL.len())
+        .filter(|&r| schedule.period[r] > 1)
+        .collect()
 }
 
 /// The clocks between a shared channel's turns: its period if that divides the frame (turns
@@ -162,9 +164,7 @@ pub fn channels_svh() -> String {
                 "every_clock"
             }
         );
-        let shared: Vec<usize> = (0..Baud::ALL.len())
-            .filter(|&r| is_shared(&schedule, r))
-            .collect();
+        let shared = shared_channels(&schedule);
         if !shared.is_empty() {
             s.push_str(&shared_instance(&search, &schedule, &shared));
         }
@@ -227,8 +227,6 @@ fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> 
         shared.iter().enumerate().all(|(i, &r)| i == r),
         "the shared channels are the slowest rates, the channel of index c the rate of index c"
     );
-    // Every slot's owner is known before the instance is written.
-    let _ = turns(schedule, shared);
     let mut w = [0u32; 5];
     let mut frames = 0;
     let mut period = 0;
@@ -281,9 +279,7 @@ fn shared_instance(search: &AutoBaud, schedule: &Schedule, shared: &[usize]) -> 
 pub fn slots_svh() -> String {
     let schedule = schedule(true);
     let search = AutoBaud::sampled(DEFAULT_CLOCK_HZ, schedule);
-    let shared: Vec<usize> = (0..Baud::ALL.len())
-        .filter(|&r| is_shared(&schedule, r))
-        .collect();
+    let shared = shared_channels(&schedule);
     let mut s = String::from(SVH_HEADER);
     s.push_str(
         "// autobaud_shared.v's tables: the channel whose turn a clock of the frame is (turn_of:\n\

@@ -26,8 +26,8 @@
 //      as the clock began, the delimiter's idle check. A telegram delivered (by its character
 //      or a gap) leaves its verdict for the next clock, unless a trial or a search replaces
 //      its receiver.
-//   5. The baud watchdog, with no telegram or character under way as the clock began: its
-//      expiry searches again.
+//   5. The baud watchdog, with no telegram or character under way as the clock began and
+//      none delivered on it: its expiry searches again.
 //   6. The transmitter: a response waiting starts when the line was idle for min TSDR as the
 //      clock began, unless this clock changes the rate or searches again (which drop it and
 //      stop what goes out). A character that started while the transmitter drove the line is
@@ -546,8 +546,9 @@ module transceiver #(
     wd_start         = wd3_start;
     wd_stop          = wd3_stop;
     // Between telegrams: none under way as the clock began (in_telegram_o), so not on the
-    // clock one ends (its verdict restarts the watchdog on the next).
-    wd_check         = rx_on_m && !switched && !rx_was_active && !in_telegram_o;
+    // clock one ends (its verdict restarts the watchdog on the next), and no character
+    // delivered on this clock (a telegram's first, whose telegram it would drop).
+    wd_check         = rx_on_m && !switched && !rx_was_active && !in_telegram_o && !ch_valid;
   end
 
   always_comb begin

@@ -568,8 +568,10 @@ impl Transceiver {
             }
             // A telegram under way is evidence of the rate: a long one at 9.6k outlasts
             // the watchdog, so it expires only between telegrams: none under way as the clock
-            // began (so not on the clock one ends, before its verdict).
-            if !was_taking && !was_inside && self.watchdog.expire(now) {
+            // began (so not on the clock one ends, before its verdict), and no character
+            // delivered on this clock (the first of a telegram is one: a watchdog that ran
+            // out during it would drop the telegram it belongs to).
+            if !was_taking && !was_inside && !delivers && self.watchdog.expire(now) {
                 self.stats.watchdog_expiries += 1;
                 self.search_again(&mut out);
             }

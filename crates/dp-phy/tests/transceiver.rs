@@ -474,6 +474,35 @@ fn trials_that_keep_failing_leave_the_watchdog_to_end_the_old_lock() {
     );
 }
 
+/// A watchdog that runs out while the first character of a telegram is on the line waits for
+/// the telegram (it is evidence of the rate), which restarts it: the telegram is delivered and
+/// the lock stays, at every rate. (It once expired on the clock that character was delivered,
+/// before the delimiter was inside a telegram, and dropped it: found by CI's
+/// `a_rate_change_relocks_without_the_watchdog`.)
+#[test]
+fn a_watchdog_that_runs_out_in_a_telegrams_first_character_waits_for_it() {
+    let mut rng = ChaCha8Rng::seed_from_u64(29);
+    let watchdog = Config::default().baud_watchdog_10ms as u64 * (CLOCK as u64 / 100);
+    for baud in Baud::ALL {
+        for into_the_character in [1, 5, 10] {
+            let mut tb = bench(baud, 0);
+            tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 8));
+            tb.run_out(40, true);
+            let expiry = tb.delivered[0].end + watchdog;
+            let next = random_telegram(&mut rng, Kind::Sd2, 8);
+            // Its start bit `into_the_character` bits before the watchdog runs out.
+            tb.run_until(expiry - t_clocks(baud, 40 + into_the_character), true);
+            tb.send(40, &next);
+            tb.run_out(40, true);
+            let case = format!("{baud}, {into_the_character} bits in");
+            assert_eq!(tb.good().last(), Some(&next), "{case}");
+            assert_eq!(tb.adapter.stats().watchdog_expiries, 0, "{case}");
+            assert_eq!(tb.adapter.baud_state(), BaudState::Locked(baud), "{case}");
+            assert_eq!(tb.baud_log.len(), 2, "{case}: {:?}", tb.baud_log);
+        }
+    }
+}
+
 fn t_clocks(baud: Baud, bits: u64) -> u64 {
     BitTiming::new(CLOCK, baud, 0).clocks_for(bits, 1)
 }
@@ -905,4 +934,14 @@ fn relocks_without_the_watchdog(
 #[test]
 fn relock_case_found_by_a_long_campaign() {
     relocks_without_the_watchdog(6, 4, 698, 4981, 2, 15276739480285272049).unwrap();
+}
+
+/// Found by CI: 1.5M to 9.6k with a glitch; the watchdog, restarted by the last telegram
+/// before the quiet end of the noise, ran out during the first character of the first clean
+/// telegram after it, expired on the clock that character was delivered and dropped the
+/// telegram (the next, an SC, cannot lock). It now waits for the telegram
+/// (`a_watchdog_that_runs_out_in_a_telegrams_first_character_waits_for_it`).
+#[test]
+fn relock_case_found_by_ci_the_watchdog_in_a_first_character() {
+    relocks_without_the_watchdog(6, 4, -950, 6012, 1, 12002842154760634464).unwrap();
 }

@@ -424,6 +424,42 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
     )
 }
 
+/// Locked at `baud`, the line quiet until the baud watchdog runs out a bit into the start
+/// bit of the next telegram's first character: the watchdog waits for the telegram (no
+/// expiry on the clock that character is delivered, before the delimiter is inside it), which
+/// restarts it. Returns the case and the model's counters.
+fn watchdog_first_char_case(baud: Baud, seed: u64) -> (Case, Stats) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, rng_ppm(seed, baud));
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let mut tb = observed_bench(&recorder, timing);
+    tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 8));
+    tb.run_out(40, false);
+    let watchdog = u64::from(Config::default().baud_watchdog_10ms) * DEFAULT_CLOCK_HZ as u64 / 100;
+    let expiry = tb.delivered[0].end + watchdog;
+    tb.run_until(expiry - timing.clocks_for(41, 1), false);
+    tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 8));
+    tb.run_out(40, false);
+    finish_with_stats(
+        tb,
+        recorder,
+        format!("transceiver-watchdog-in-a-first-character-{baud}"),
+    )
+}
+
+/// [`watchdog_first_char_case`]s: at 9.6k and 12M (`quick`), or at every rate.
+fn watchdog_first_char_cases(quick: bool) -> Vec<(Case, Stats)> {
+    let rates: &[Baud] = if quick {
+        &[Baud::B9600, Baud::B12000000]
+    } else {
+        &Baud::ALL
+    };
+    rates
+        .iter()
+        .map(|&b| watchdog_first_char_case(b, 500 + b.index() as u64))
+        .collect()
+}
+
 /// A lock at `lock` taken back on a clock on which the line falls at its rate: two polls at
 /// `lock`, a telegram at `other` that fails the trial it starts (`end`), and a low pulse of
 /// two `lock` bits whose fall the lock's channel samples on the verdict's clock, then two polls
@@ -727,6 +763,7 @@ pub fn transceiver_cases(quick: bool) -> Vec<Case> {
     cases.extend(response_cases(quick).into_iter().map(|(c, _)| c));
     cases.extend(glitch_burst_cases().into_iter().map(|(c, _)| c));
     cases.extend(relock_fall_cases().into_iter().map(|(c, _)| c));
+    cases.extend(watchdog_first_char_cases(quick).into_iter().map(|(c, _)| c));
     cases
 }
 
@@ -905,6 +942,19 @@ mod tests {
                 "{}: {stats:?}",
                 case.name
             );
+        }
+    }
+
+    /// The watchdog's cases, quick and full, deliver both telegrams with no expiry: the
+    /// watchdog ran out inside the second one's first character and waited for it.
+    #[test]
+    fn the_watchdog_waits_for_a_first_character() {
+        for (case, stats) in watchdog_first_char_cases(true)
+            .into_iter()
+            .chain(watchdog_first_char_cases(false))
+        {
+            assert_eq!(stats.telegrams_good, 2, "{}: {stats:?}", case.name);
+            assert_eq!(stats.watchdog_expiries, 0, "{}: {stats:?}", case.name);
         }
     }
 

@@ -14,6 +14,7 @@
 // the RAM; after it, for each change of the baud state, u8 2, u8 state, u8 rate, u8 fallback
 // (0xFF with none); after it, for each change of the idle line at the rate heard, u8 3, u8
 // idle, u32 idle_since (0 while not idle); for each respond_i, u8 4, u8 taken.
+#include <array>
 #include <memory>
 
 #include "Vtransceiver.h"
@@ -35,8 +36,10 @@ int main(int argc, char** argv) {
   uint8_t response[256] = {};
   uint8_t tx_addr = 0;
   uint32_t clock_n = 0;
-  std::vector<uint8_t> last_state = {0, 0, 0xFF};
-  std::vector<uint8_t> last_idle = {3, 0, 0, 0, 0, 0};
+  // The state and the idle line as last recorded (arrays: a clock allocates nothing).
+  std::array<uint8_t, 3> last_state = {0, 0, 0xFF};
+  std::array<uint8_t, 2> last_idle_flag = {3, 0};
+  uint32_t last_idle_since = 0;
   auto clock = [&](uint8_t level) {
     top->rx_i = level;
     top->clk_i = 0;
@@ -62,20 +65,23 @@ int main(int argc, char** argv) {
       payload.insert(payload.end(), ram, ram + len);
       events.record(clock_n, payload);
     }
-    std::vector<uint8_t> now = {state, static_cast<uint8_t>(top->rate_o),
-                                static_cast<uint8_t>(top->fallback_valid_o ? top->fallback_o
-                                                                           : 0xFF)};
+    std::array<uint8_t, 3> now = {state, static_cast<uint8_t>(top->rate_o),
+                                  static_cast<uint8_t>(top->fallback_valid_o ? top->fallback_o
+                                                                             : 0xFF)};
     if (now != last_state) {
       std::vector<uint8_t> payload = {2};
       payload.insert(payload.end(), now.begin(), now.end());
       events.record(clock_n, payload);
       last_state = now;
     }
-    std::vector<uint8_t> idle = {3, static_cast<uint8_t>(top->idle_o)};
-    put(idle, top->idle_o ? top->idle_since_o : 0, 4);
-    if (idle != last_idle) {
-      events.record(clock_n, idle);
-      last_idle = idle;
+    std::array<uint8_t, 2> idle_flag = {3, static_cast<uint8_t>(top->idle_o)};
+    uint32_t idle_since = top->idle_o ? top->idle_since_o : 0;
+    if (idle_flag != last_idle_flag || idle_since != last_idle_since) {
+      std::vector<uint8_t> payload(idle_flag.begin(), idle_flag.end());
+      put(payload, idle_since, 4);
+      events.record(clock_n, payload);
+      last_idle_flag = idle_flag;
+      last_idle_since = idle_since;
     }
     clock_n++;
   };

@@ -16,7 +16,7 @@
 
 use crate::{check_flags, flag_value, project_root};
 use anyhow::{bail, Context, Result};
-use dp_phy::sweep::{self, cases, Scenario, SweepCase, SweepRun};
+use dp_phy::sweep::{self, cases, Scenario, Shard, SweepCase, SweepRun};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::{Baud, BaudState, Config, Tick};
 use std::fmt::Write as _;
@@ -314,26 +314,19 @@ pub fn run(args: &[String]) -> Result<()> {
         },
         ..Config::default()
     };
-    let (shard, shards) = match flag_value(args, "--shard")? {
-        None => (1, 1),
-        Some(s) => {
-            let (i, n) = s.split_once('/').context("--shard takes i/N, e.g. 2/4")?;
-            let (i, n): (usize, usize) = (i.parse()?, n.parse()?);
-            if n == 0 || i == 0 || i > n {
-                bail!("--shard {s}: i must be in 1..=N");
-            }
-            (i, n)
-        }
+    let shard = match flag_value(args, "--shard")? {
+        None => Shard::ALL,
+        Some(s) => s.parse().map_err(anyhow::Error::msg)?,
     };
     let all = cases(quick);
     let mine: Vec<SweepCase> = all
         .iter()
         .enumerate()
-        .filter(|(k, _)| k % shards == shard - 1)
+        .filter(|(k, _)| shard.holds(*k))
         .map(|(_, c)| *c)
         .collect();
     println!(
-        "baud-sweep: {} of {} cases ({}shard {shard}/{shards})",
+        "baud-sweep: {} of {} cases ({}shard {shard})",
         mine.len(),
         all.len(),
         if quick { "quick, " } else { "" }
@@ -345,10 +338,10 @@ pub fn run(args: &[String]) -> Result<()> {
     } else {
         "sweep"
     };
-    let stem = if shards == 1 {
+    let stem = if shard.count == 1 {
         base.to_string()
     } else {
-        format!("{base}-{shard}-of-{shards}")
+        format!("{base}-{}-of-{}", shard.index, shard.count)
     };
     report(&rows, &project_root().join("target/baud-sweep"), &stem)
 }
@@ -662,7 +655,13 @@ mod tests {
             let mine: Vec<SweepCase> = all
                 .iter()
                 .enumerate()
-                .filter(|(k, _)| k % 2 == shard - 1)
+                .filter(|(k, _)| {
+                    Shard {
+                        index: shard,
+                        count: 2,
+                    }
+                    .holds(*k)
+                })
                 .map(|(_, c)| *c)
                 .collect();
             let path = dir.join(format!("sweep-{shard}-of-2.csv"));

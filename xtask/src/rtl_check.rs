@@ -1,6 +1,10 @@
-//! `cargo xtask rtl-check [--quick] [--only BUILD]`: the gateware's blocks against their Rust
-//! twins in dp-phy, clock for clock (crates/rtl-check); `--only` runs the builds whose name
-//! holds BUILD (`autobaud-Oversampled1`, `char_reader`), for work on one block.
+//! `cargo xtask rtl-check [--quick] [--only BUILD] [--jobs N] [--shard i/N]`: the gateware's
+//! blocks against their Rust twins in dp-phy, clock for clock (crates/rtl-check); `--only` runs
+//! the builds whose name holds BUILD (`autobaud-Oversampled1`, `char_reader`), for work on one
+//! block. A block's cases run N harnesses at once (`--jobs`, by default one a core), each in a
+//! work directory of its own; `--shard i/N` runs the i-th of N shares of every block's cases
+//! (by position: the GitHub workflow's matrix, or a full run split over sessions), and the
+//! model makes only those.
 //!
 //! First it proves that it can fail: the transmitter built one clock late (`LateByOne`) must
 //! differ from the model at the first start bit's clock, on `tx`. Then every block ported so far
@@ -13,13 +17,33 @@
 use crate::{check_flags, flag_value, project_root, qemu_test::ensure_debian_tool};
 use anyhow::{bail, Context, Result};
 use dp_consts::Baud;
+use dp_phy::sweep::Shard;
+use rayon::prelude::*;
 use rtl_check::{blocks, first_event_mismatch, first_mismatch, verilator, write_vcd, Block, Case};
 use std::path::Path;
 
+/// A build's cases, made when it runs.
+type CaseList = Box<dyn FnOnce() -> Vec<Case>>;
+
 pub fn run(args: &[String]) -> Result<()> {
-    check_flags(args, &["--quick"], &["--only"])?;
+    check_flags(args, &["--quick"], &["--only", "--jobs", "--shard"])?;
     let quick = args.iter().any(|a| a == "--quick");
     let only = flag_value(args, "--only")?;
+    let jobs = match flag_value(args, "--jobs")? {
+        Some(n) => match n.parse::<usize>() {
+            Ok(n) if n > 0 => n,
+            _ => bail!("--jobs needs a number of harnesses at once, 1 or more, not `{n}`"),
+        },
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let shard = match flag_value(args, "--shard")? {
+        None => Shard::ALL,
+        Some(s) => s.parse().map_err(anyhow::Error::msg)?,
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .context("starting the harnesses' threads")?;
     ensure_debian_tool("verilator", "verilator")?;
     let root = project_root();
     let gateware = root.join("gateware");
@@ -51,32 +75,66 @@ pub fn run(args: &[String]) -> Result<()> {
     } else {
         (Baud::ALL.to_vec(), Baud::ALL.to_vec())
     };
-    let mut runs: Vec<(Block, Vec<Case>)> = vec![
-        (blocks::line_sync(0), blocks::line_sync_cases(0, quick)),
-        (blocks::line_sync(3), blocks::line_sync_cases(3, quick)),
+    // Each build with its cases, made only for the builds that run (the top's full set is
+    // minutes of the model in strict mode): a shard takes every block's cases by position.
+    let sharded = move |cases: Vec<Case>| -> Vec<Case> {
+        cases
+            .into_iter()
+            .enumerate()
+            .filter(|(k, _)| shard.holds(*k))
+            .map(|(_, c)| c)
+            .collect()
+    };
+    let mut runs: Vec<(Block, CaseList)> = vec![
+        (
+            blocks::line_sync(0),
+            Box::new(move || sharded(blocks::line_sync_cases(0, quick))),
+        ),
+        (
+            blocks::line_sync(3),
+            Box::new(move || sharded(blocks::line_sync_cases(3, quick))),
+        ),
         (
             blocks::char_reader(run_time),
-            blocks::char_reader_cases(&reader_rates, run_time, quick),
+            Box::new(move || sharded(blocks::char_reader_cases(&reader_rates, run_time, quick))),
         ),
         (
             blocks::autobaud(false),
-            blocks::autobaud_cases(quick, false),
+            Box::new(move || sharded(blocks::autobaud_cases(quick, false))),
         ),
-        (blocks::autobaud(true), blocks::autobaud_cases(quick, true)),
-        (blocks::edge_rx(), blocks::edge_rx_cases(quick)),
-        (blocks::rate_idle(), blocks::rate_idle_cases(quick)),
-        (blocks::delimiter(), blocks::delimiter_cases(quick)),
-        (blocks::uart_tx(false), blocks::uart_tx_cases(quick)),
-        (blocks::transceiver(), blocks::transceiver_cases(quick)),
+        (
+            blocks::autobaud(true),
+            Box::new(move || sharded(blocks::autobaud_cases(quick, true))),
+        ),
+        (
+            blocks::edge_rx(),
+            Box::new(move || sharded(blocks::edge_rx_cases(quick))),
+        ),
+        (
+            blocks::rate_idle(),
+            Box::new(move || sharded(blocks::rate_idle_cases(quick))),
+        ),
+        (
+            blocks::delimiter(),
+            Box::new(move || sharded(blocks::delimiter_cases(quick))),
+        ),
+        (
+            blocks::uart_tx(false),
+            Box::new(move || sharded(blocks::uart_tx_cases(quick))),
+        ),
+        (
+            blocks::transceiver(),
+            Box::new(move || blocks::transceiver_cases(quick, shard)),
+        ),
         (
             blocks::transceiver_near_wrap(),
-            blocks::near_wrap_cases(quick),
+            Box::new(move || sharded(blocks::near_wrap_cases(quick))),
         ),
     ];
     for width in [blocks::baud_watchdog_width(), blocks::dp_watchdog_width()] {
         runs.push((
             blocks::watchdog(width),
-            blocks::watchdog_cases(width, quick),
+            Box::new(move || sharded(blocks::watchdog_cases(width, quick))),
         ));
     }
     for baud in own_width_rates {
@@ -84,7 +142,7 @@ pub fn run(args: &[String]) -> Result<()> {
         if width != run_time {
             runs.push((
                 blocks::char_reader(width),
-                blocks::char_reader_cases(&[baud], width, quick),
+                Box::new(move || sharded(blocks::char_reader_cases(&[baud], width, quick))),
             ));
         }
     }
@@ -95,45 +153,11 @@ pub fn run(args: &[String]) -> Result<()> {
         }
     }
     let (mut cases, mut clocks, mut mismatches) = (0usize, 0u64, 0usize);
-    for (block, block_cases) in &runs {
-        let binary = build(block, &gateware, &out)?;
-        let mut block_clocks = 0;
-        let mut block_mismatches = 0;
-        for case in block_cases {
-            let (rtl, rtl_events) = verilator::run(block, &binary, case, &out.join("work"))?;
-            block_clocks += case.model.clocks();
-            let mismatch = first_mismatch(&case.model, &rtl, block.signals);
-            if mismatch.is_none() {
-                if let Some((i, model, rtl)) = first_event_mismatch(&case.model_events, &rtl_events)
-                {
-                    block_mismatches += 1;
-                    println!(
-                        "  MISMATCH {} ({} against {}): delivery {i}: model {model:02X?} rtl {rtl:02X?}",
-                        case.name,
-                        block.build_name(),
-                        block.twin
-                    );
-                }
-            }
-            if let Some(m) = mismatch {
-                block_mismatches += 1;
-                let vcd = out.join(format!("{}.vcd", case.name));
-                write_vcd(
-                    &vcd,
-                    block.signals,
-                    &case.model,
-                    &rtl,
-                    u64::from(dp_phy::timing::DEFAULT_CLOCK_HZ),
-                )?;
-                println!(
-                    "  MISMATCH {} ({} against {}): {m}; both sides in {}",
-                    case.name,
-                    block.build_name(),
-                    block.twin,
-                    vcd.display()
-                );
-            }
-        }
+    for (block, make_cases) in runs {
+        let binary = build(&block, &gateware, &out)?;
+        let block_cases = make_cases();
+        let block_mismatches = run_cases(&pool, &block, &binary, &block_cases, &out)?;
+        let block_clocks: u64 = block_cases.iter().map(|c| c.model.clocks()).sum();
         println!(
             "  {:<24} against {:<32} cases {:>3}  clocks {:>11}  mismatches {}",
             block.build_name(),
@@ -181,6 +205,72 @@ pub(crate) fn lock_rtl_dir(out: &Path) -> Result<std::fs::File> {
             Err(e).with_context(|| format!("locking {}", path.display()))
         }
     }
+}
+
+/// Runs `block`'s harness on each of `cases` on `pool`'s threads (each in a work directory of
+/// its own under `out`: the harness reads its stimulus from a file), and compares each with the
+/// model; prints each mismatch as it is found, with its VCD. Returns the mismatches.
+fn run_cases(
+    pool: &rayon::ThreadPool,
+    block: &Block,
+    binary: &Path,
+    cases: &[Case],
+    out: &Path,
+) -> Result<usize> {
+    let reports = pool.install(|| {
+        cases
+            .par_iter()
+            .map(|case| {
+                let worker = rayon::current_thread_index().unwrap_or(0);
+                let work = out.join(format!("work-{worker}"));
+                let report = compare_case(block, binary, case, out, &work)?;
+                if let Some(line) = &report {
+                    println!("{line}");
+                }
+                Ok(report)
+            })
+            .collect::<Result<Vec<_>>>()
+    })?;
+    Ok(reports.iter().flatten().count())
+}
+
+/// One case: the harness's outputs against the model's, clock for clock, then (where those
+/// agree) delivery by delivery. Returns the mismatch's report line, its VCD written.
+fn compare_case(
+    block: &Block,
+    binary: &Path,
+    case: &Case,
+    out: &Path,
+    work: &Path,
+) -> Result<Option<String>> {
+    let (rtl, rtl_events) = verilator::run(block, binary, case, work)?;
+    if let Some(m) = first_mismatch(&case.model, &rtl, block.signals) {
+        let vcd = out.join(format!("{}.vcd", case.name));
+        write_vcd(
+            &vcd,
+            block.signals,
+            &case.model,
+            &rtl,
+            u64::from(dp_phy::timing::DEFAULT_CLOCK_HZ),
+        )?;
+        return Ok(Some(format!(
+            "  MISMATCH {} ({} against {}): {m}; both sides in {}",
+            case.name,
+            block.build_name(),
+            block.twin,
+            vcd.display()
+        )));
+    }
+    Ok(
+        first_event_mismatch(&case.model_events, &rtl_events).map(|(i, model, rtl)| {
+            format!(
+                "  MISMATCH {} ({} against {}): delivery {i}: model {model:02X?} rtl {rtl:02X?}",
+                case.name,
+                block.build_name(),
+                block.twin
+            )
+        }),
+    )
 }
 
 fn build(block: &Block, gateware: &Path, out: &Path) -> Result<std::path::PathBuf> {

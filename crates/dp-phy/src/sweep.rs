@@ -35,6 +35,48 @@ impl std::fmt::Display for Scenario {
     }
 }
 
+/// One of `count` shares of a list of cases, for runs that split it (`--shard index/count`):
+/// the cases whose position in the list is `index - 1` modulo `count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+impl Shard {
+    /// The whole list.
+    pub const ALL: Shard = Shard { index: 1, count: 1 };
+
+    /// Whether the case at `position` in its list is this shard's.
+    pub fn holds(&self, position: usize) -> bool {
+        position % self.count == self.index - 1
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// `i/N`, with i in 1..=N.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("--shard takes i/N with i in 1..=N (2/4, say), not `{s}`");
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count): (usize, usize) = (
+            i.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if count == 0 || index == 0 || index > count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
 /// One case of the sweep.
 #[derive(Clone, Copy, Debug)]
 pub struct SweepCase {
@@ -182,5 +224,24 @@ pub fn drive(
         from_tick,
         from_sent,
         sent,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shards of a list take each case once, and a malformed `i/N` is refused.
+    #[test]
+    fn shards_split_a_list_once() {
+        let shards: Vec<Shard> = (1..=3).map(|i| format!("{i}/3").parse().unwrap()).collect();
+        for position in 0..100 {
+            assert_eq!(shards.iter().filter(|s| s.holds(position)).count(), 1);
+        }
+        assert!(Shard::ALL.holds(7));
+        assert_eq!(" 2 / 4".parse::<Shard>(), Ok(Shard { index: 2, count: 4 }));
+        for bad in ["0/4", "5/4", "1/0", "2", "a/4", "1/4/2", ""] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
     }
 }

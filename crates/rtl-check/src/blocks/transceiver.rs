@@ -18,7 +18,7 @@ use dp_consts::Baud;
 use dp_phy::autobaud::AutoBaud;
 use dp_phy::bus::{FaultInjector, FaultWindow, LineFault, Outgoing};
 use dp_phy::delimiter::Status;
-use dp_phy::sweep::{self, SweepCase};
+use dp_phy::sweep::{self, Shard, SweepCase};
 use dp_phy::testbench::{poll_sequence, random_telegram, Kind, Observer, Testbench};
 use dp_phy::timing::DEFAULT_CLOCK_HZ;
 use dp_phy::transceiver::Stats;
@@ -26,6 +26,7 @@ use dp_phy::uart::CharFault;
 use dp_phy::{BaudState, BitTiming, Config, Tick, Transceiver};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use std::cell::RefCell;
 use std::fmt::Write as _;
 use std::rc::Rc;
@@ -749,21 +750,38 @@ const TRIAL_PAIRS: [(Baud, Baud); 4] = [
     (Baud::B3000000, Baud::B45450),
 ];
 
-/// The sweep's cases (`quick`: a few of its quick set, which fit CI's time) and the trials'.
-pub fn transceiver_cases(quick: bool) -> Vec<Case> {
+/// The sweep's cases (`quick`: a few of its quick set, which fit CI's time) and the scripted
+/// ones, those of `shard` (by position in that list): the sweep's are run by the model only
+/// for the shard, on every core.
+pub fn transceiver_cases(quick: bool, shard: Shard) -> Vec<Case> {
     let all = sweep::cases(quick);
     let chosen: Vec<&SweepCase> = if quick {
         all.iter().step_by(11).collect()
     } else {
         all.iter().collect()
     };
-    let mut cases: Vec<Case> = chosen.into_iter().map(sweep_case).collect();
-    cases.extend(trials_cases(quick).into_iter().map(|(c, _)| c));
-    cases.extend(late_decision_cases(quick).into_iter().map(|(c, _)| c));
-    cases.extend(response_cases(quick).into_iter().map(|(c, _)| c));
-    cases.extend(glitch_burst_cases().into_iter().map(|(c, _)| c));
-    cases.extend(relock_fall_cases().into_iter().map(|(c, _)| c));
-    cases.extend(watchdog_first_char_cases(quick).into_iter().map(|(c, _)| c));
+    let sweep_count = chosen.len();
+    let mine: Vec<&SweepCase> = chosen
+        .into_iter()
+        .enumerate()
+        .filter(|(k, _)| shard.holds(*k))
+        .map(|(_, c)| c)
+        .collect();
+    let mut cases: Vec<Case> = mine.into_par_iter().map(sweep_case).collect();
+    let scripted = trials_cases(quick)
+        .into_iter()
+        .chain(late_decision_cases(quick))
+        .map(|(c, _)| c)
+        .chain(response_cases(quick).into_iter().map(|(c, _)| c))
+        .chain(glitch_burst_cases().into_iter().map(|(c, _)| c))
+        .chain(relock_fall_cases().into_iter().map(|(c, _)| c))
+        .chain(watchdog_first_char_cases(quick).into_iter().map(|(c, _)| c));
+    cases.extend(
+        scripted
+            .enumerate()
+            .filter(|(k, _)| shard.holds(sweep_count + k))
+            .map(|(_, c)| c),
+    );
     cases
 }
 

@@ -180,6 +180,9 @@ pub fn run(args: &[String]) -> Result<()> {
         done.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
         left.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
     );
+    if shard != Shard::ALL {
+        println!("rtl-check: shard {shard} of every block's cases (by position)");
+    }
     println!("rtl-check: cases={cases} clocks={clocks} mismatches={mismatches}");
     if mismatches > 0 {
         bail!("{mismatches} case(s) differ from the model");
@@ -218,8 +221,11 @@ fn run_cases(
     out: &Path,
 ) -> Result<usize> {
     let reports = pool.install(|| {
+        // One case a task: a case is seconds to minutes of a harness, and a run of them that a
+        // thread had begun in sequence could not be shared (rayon's default splitting).
         cases
             .par_iter()
+            .with_max_len(1)
             .map(|case| {
                 let worker = rayon::current_thread_index().unwrap_or(0);
                 let work = out.join(format!("work-{worker}"));

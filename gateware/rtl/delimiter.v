@@ -72,16 +72,50 @@ module delimiter (
   logic [7:0]  fcs_q, fcs_d;
   logic        fcs_ok_q, fcs_ok_d;
 
-  // The character's place in the telegram (len 0 and expect by its delimiter at a start), and
-  // whether it is appended.
-  logic       appending;
-  // The character ends the telegram (status_o says how).
-  logic       ends;
-  logic [7:0] len_base, expect_base, first_now, index_fcs;
-  logic       has_fcs, in_body;
+  // The character's next place, worked out from the registers alone, so that the character
+  // meets only the few levels of choice below (with the character's byte in the length checks,
+  // the delimiter took 24 ns after its character: README "Gateware"). Inside a telegram at
+  // least its delimiter is kept (len_q >= 1: its first byte is first_q), and the byte at
+  // len_q is:
+  //   in_body:  summed into the FCS (SD1 and SD3 bytes 1 .. expect-3, SD2 bytes 4 .. expect-3);
+  //   at_fcs:   the FCS (expect-2);
+  //   last:     the last (expect-1, the ED; never the FCS, so the FCS's check is fcs_ok_q);
+  //   sd2_le, sd2_ler, sd2_sd: an SD2's LE, LEr and second SD2 (expect is 0 until LEr).
+  logic       has_fcs, is_sd2, in_body, at_fcs, last, sd2_le, sd2_ler, sd2_sd;
+  logic [7:0] index_fcs;
+  always_comb begin
+    is_sd2    = first_q == SD2;
+    has_fcs   = first_q == SD1 || is_sd2 || first_q == SD3;
+    index_fcs = expect_q - 8'd2;
+    in_body   = has_fcs && expect_q != 8'd0 && len_q < index_fcs
+                && len_q >= (is_sd2 ? 8'd4 : 8'd1);
+    at_fcs    = has_fcs && expect_q != 8'd0 && len_q == index_fcs;
+    last      = expect_q != 8'd0 && len_q + 8'd1 >= expect_q;
+    sd2_le    = is_sd2 && len_q == 8'd1;
+    sd2_ler   = is_sd2 && len_q == 8'd2;
+    sd2_sd    = is_sd2 && len_q == 8'd3;
+  end
+
+  // A telegram's start: its delimiter's expected length (0: not a start delimiter).
+  logic       start_known;
+  logic [7:0] start_expect;
+  always_comb begin
+    start_known = 1'b1;
+    case (char_byte_i)
+      SD1:     start_expect = 8'd6;
+      SD2:     start_expect = 8'd0;
+      SD3:     start_expect = 8'd14;
+      SD4:     start_expect = 8'd3;
+      SC:      start_expect = 8'd1;
+      default: begin
+        start_expect = 8'd0;
+        start_known  = 1'b0;
+      end
+    endcase
+  end
 
   // After the character: its delivery alone (Delivery::Telegram from on_char) and its status.
-  logic        char_deliver, inside_c;
+  logic        char_deliver, inside_c, ends;
   logic [3:0]  char_status;
   logic [31:0] char_end;
 
@@ -93,121 +127,79 @@ module delimiter (
     le_d         = le_q;
     fcs_d        = fcs_q;
     fcs_ok_d     = fcs_ok_q;
-    char_deliver = 1'b0;
-    not_synced_o   = 1'b0;
+    not_synced_o = 1'b0;
     char_status  = StGood;
-    char_end     = '0;
     wr_o         = 1'b0;
     wr_addr_o    = len_q;
     wr_data_o    = char_byte_i;
-    appending    = 1'b0;
     ends         = 1'b0;
-    len_base     = len_q;
-    expect_base  = expect_q;
-    first_now    = first_q;
-    index_fcs    = '0;
-    has_fcs      = 1'b0;
-    in_body      = 1'b0;
+    first_o      = first_q;
 
-    if (char_i) begin
-      if (inside_q) begin
-        if (char_idle_before_i > gap_q) begin
-          ends     = 1'b1;
-          char_status = StGap;
-        end else begin
-          appending = 1'b1;
-        end
-      end else if (char_idle_before_i < tsyn_q) begin
-        not_synced_o = 1'b1;
+    if (char_i && inside_q) begin
+      if (char_idle_before_i > gap_q) begin
+        ends        = 1'b1;
+        char_status = StGap;
+      end else if (char_error_i != 3'd0) begin
+        ends        = 1'b1;
+        char_status = {1'b0, char_error_i};
       end else begin
-        len_base = '0;
-        len_d    = '0;
-        inside_c = 1'b1;
-        fcs_d    = '0;
-        fcs_ok_d = 1'b0;
-        if (char_error_i != 3'd0) begin
-          ends     = 1'b1;
-          char_status = {1'b0, char_error_i};
-        end else begin
-          appending = 1'b1;
-          case (char_byte_i)
-            SD1:     expect_base = 8'd6;
-            SD2:     expect_base = 8'd0;
-            SD3:     expect_base = 8'd14;
-            SD4:     expect_base = 8'd3;
-            SC:      expect_base = 8'd1;
-            default: begin
-              // Not a start delimiter: kept as the telegram, and refused.
-              appending = 1'b0;
-              wr_o      = 1'b1;
-              wr_addr_o = 8'd0;
-              len_d     = 8'd1;
-              ends     = 1'b1;
-              char_status = StBadDelimiter;
-            end
-          endcase
-          expect_d = expect_base;
+        wr_o  = 1'b1;
+        len_d = len_q + 8'd1;
+        if (in_body) fcs_d = fcs_q + char_byte_i;
+        if (at_fcs) fcs_ok_d = char_byte_i == fcs_q;
+        if (sd2_le && (char_byte_i < 8'd4 || char_byte_i > 8'd249)) begin
+          ends        = 1'b1;
+          char_status = StBadLength;
+        end else if (sd2_le) begin
+          le_d = char_byte_i;
+        end else if (sd2_ler && char_byte_i != le_q) begin
+          ends        = 1'b1;
+          char_status = StLengthMismatch;
+        end else if (sd2_ler) begin
+          // LE was checked to be at most 249: LE + 6 fits.
+          expect_d = le_q + 8'd6;
+        end else if (sd2_sd && char_byte_i != SD2) begin
+          ends        = 1'b1;
+          char_status = StLengthMismatch;
+        end else if (last) begin
+          ends = 1'b1;
+          if (has_fcs && !fcs_ok_q)        char_status = StBadFcs;
+          else if (has_fcs && char_byte_i != ED) char_status = StNoEnd;
         end
       end
-    end
-
-    if (appending) begin
+    end else if (char_i && char_idle_before_i < tsyn_q) begin
+      not_synced_o = 1'b1;
+    end else if (char_i) begin
+      // A telegram's start: its delimiter is kept (a start delimiter or not).
+      len_d    = '0;
+      inside_c = 1'b1;
+      fcs_d    = '0;
+      fcs_ok_d = 1'b0;
       if (char_error_i != 3'd0) begin
-        ends     = 1'b1;
+        ends        = 1'b1;
         char_status = {1'b0, char_error_i};
       end else begin
         wr_o      = 1'b1;
-        wr_addr_o = len_base;
-        len_d     = len_base + 1'b1;
-        first_now = (len_base == 8'd0) ? char_byte_i : first_q;
-        first_d   = first_now;
-        // The FCS: SD1 and SD3 sum bytes 1 .. expect-3, SD2 bytes 4 .. expect-3; the byte at
-        // expect-2 is the FCS, at expect-1 the ED.
-        has_fcs   = first_now == SD1 || first_now == SD2 || first_now == SD3;
-        index_fcs = expect_base - 8'd2;
-        in_body   = has_fcs && expect_base != 8'd0 && len_base < index_fcs
-                    && len_base >= ((first_now == SD2) ? 8'd4 : 8'd1);
-        if (in_body) fcs_d = fcs_q + char_byte_i;
-        if (has_fcs && expect_base != 8'd0 && len_base == index_fcs) begin
-          fcs_ok_d = char_byte_i == fcs_q;
-        end
-        if (first_now == SD2 && len_base == 8'd1
-            && (char_byte_i < 8'd4 || char_byte_i > 8'd249)) begin
-          ends     = 1'b1;
-          char_status = StBadLength;
-        end else if (first_now == SD2 && len_base == 8'd1) begin
-          le_d = char_byte_i;
-        end else if (first_now == SD2 && len_base == 8'd2 && char_byte_i != le_q) begin
-          ends     = 1'b1;
-          char_status = StLengthMismatch;
-        end else if (first_now == SD2 && len_base == 8'd3 && char_byte_i != SD2) begin
-          ends     = 1'b1;
-          char_status = StLengthMismatch;
+        wr_addr_o = 8'd0;
+        len_d     = 8'd1;
+        if (start_known) begin
+          first_d  = char_byte_i;
+          first_o  = char_byte_i;
+          expect_d = start_expect;
+          // An SC is the whole telegram.
+          ends     = char_byte_i == SC;
         end else begin
-          if (first_now == SD2 && len_base == 8'd2) begin
-            // LE was checked to be at most 249: LE + 6 fits.
-            expect_d    = le_q + 8'd6;
-            expect_base = le_q + 8'd6;
-          end
-          if (expect_base != 8'd0 && len_base + 8'd1 >= expect_base) begin
-            ends = 1'b1;
-            if (!has_fcs)                 char_status = StGood;
-            else if (!fcs_ok_d)           char_status = StBadFcs;
-            else if (char_byte_i != ED)   char_status = StNoEnd;
-            else                          char_status = StGood;
-          end
+          ends        = 1'b1;
+          char_status = StBadDelimiter;
         end
       end
     end
 
     // A character that ends the telegram delivers it, at its end tick.
-    if (ends) begin
-      char_deliver = 1'b1;
-      char_end  = char_end_i;
-      inside_c  = 1'b0;
-    end
-    len_o   = len_d;
-    first_o = first_now;
+    char_deliver = ends;
+    char_end     = ends ? char_end_i : '0;
+    if (ends) inside_c = 1'b0;
+    len_o = len_d;
   end
 
   // on_idle, after the character: a telegram still under way (before a reset).

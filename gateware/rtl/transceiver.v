@@ -182,13 +182,22 @@ module transceiver #(
   logic [7:0]  min_tsdr_q;
   logic        rate_moved_q;
   logic        tsdr_restart;
+  // Now less min TSDR in clocks (the registers' figure; worked out a clock ahead): the line
+  // went quiet long enough when its last end and its idle line's high tick are both at or
+  // before it. One comparison a tick, where the idle time's later(), its subtraction from now
+  // and its comparison with min TSDR took three carry chains in a row.
+  logic [31:0] tsdr_bound_q, tsdr_bound_d;
   // The clocks since the transmitter last drove the line, as this clock begins (the model's
   // drove_until seen from now, saturating; '1 also for never): a character that started by
   // then is the transceiver's own echo. An age, not a tick: a tick 2^31 clocks old (45 s
   // without an answer) would compare as one in the future, and every character since would
-  // be taken for an echo.
+  // be taken for an echo. The comparison itself takes the drive's tick, AgeWidth bits of it
+  // (drove_at_q), while the age is under 2^(AgeWidth-1): then the start, under 2^17 clocks
+  // old, is within 2^17 of it, and one subtraction tells which came later (the age of the
+  // start, then its comparison with the drive's, took two carry chains in a row).
   logic [AgeWidth-1:0] drove_age_q, drove_age, drove_age_d;
-  logic [AgeWidth-1:0] start_age;
+  logic [AgeWidth-1:0] drove_at_q, drove_at, start_less_drove;
+  logic                drove_old;
 
   // ---- The synchroniser and the search ----
   logic level, fell_unused, rose_unused;
@@ -386,8 +395,15 @@ module transceiver #(
   logic ch_kept;
   assign drove_age   = de_o ? AgeWidth'(1) : drove_age_q;
   assign drove_age_d = drove_age + AgeWidth'(drove_age != '1);
-  assign start_age   = AgeWidth'(now_q - rx_start);
-  assign ch_kept     = det_q || (rx_char && (Transmitter == 0 || start_age < drove_age));
+  assign drove_at    = de_o ? AgeWidth'(now_q - 32'd1) : drove_at_q;
+  assign drove_old   = drove_age[AgeWidth-1];
+  // The start less the drive, less one: not negative when the start came later.
+  assign start_less_drove = AgeWidth'(rx_start) + ~drove_at;
+  assign ch_kept     = det_q || (rx_char && (Transmitter == 0 || drove_old
+                                             || !start_less_drove[AgeWidth-1]));
+  /* verilator lint_off UNUSEDSIGNAL */
+  wire unused_start_high = &{1'b0, rx_start[31:AgeWidth]};
+  /* verilator lint_on UNUSEDSIGNAL */
   logic [1:0]  state_m;
   logic        fb_valid_m, restore_m;
   logic [31:0] last_end_m;
@@ -567,10 +583,9 @@ module transceiver #(
   // idle for min TSDR as the clock began (idle_o, idle_since_o: the registers) and its
   // earliest tick has come, unless this clock gives the transmitter a new rate or none (a
   // trial, a lock taken back, a search: the model's use_rate and search_again), which drops
-  // what waits and stops what goes out. The idle time is stage 2's: with idle_o it counts
-  // from the registers (no character is delivered, and on the clock a detection's reaches
-  // the delimiter the last end kept is its own), and a lock taken back clears the
-  // transmitter whatever it says.
+  // what waits and stops what goes out. The idle time is the registers': with idle_o no
+  // character is delivered, and on the clock a detection's reaches the delimiter the last
+  // end kept is its own; a lock taken back clears the transmitter whatever it says.
   logic [7:0]  min_tsdr;
   logic        tx_busy, tx_clear, tx_start, respond_ok, resp_waiting, resp_due;
   logic [7:0]  resp_len;
@@ -584,7 +599,8 @@ module transceiver #(
     resp_not_before = pending_q ? not_before_q : respond_not_before_i;
     resp_due        = resp_waiting && !tsdr_restart && tsdr_step_q == '0 && idle_o
                       && $signed(now_q - resp_not_before) >= 0
-                      && idle_before >= IW'(tsdr_q);
+                      && $signed(tsdr_bound_q - last_end_q) >= 0
+                      && $signed(tsdr_bound_q - idle_since_q) >= 0;
     tx_clear        = dl_config || dl_reset;
     tx_start        = resp_due && !tx_clear;
     pending_d       = resp_waiting && !resp_due && !tx_clear;
@@ -602,6 +618,7 @@ module transceiver #(
       tsdr_d      = {tsdr_q[19:0], 1'b0} + (min_tsdr[3'(tsdr_step_q - 4'd1)] ? 21'(tx_bit_q) : '0);
       tsdr_step_d = tsdr_step_q - 4'd1;
     end
+    tsdr_bound_d = now_q + 32'd1 - 32'(tsdr_d);
   end
   if (Transmitter != 0) begin : g_tx
     uart_tx #(.PhaseWidth(13)) u_tx (
@@ -648,9 +665,11 @@ module transceiver #(
       tx_bit_q      <= rate_bit(4'd0);
       tsdr_q        <= 21'(rate_bit(4'd0)) * 21'(MinTsdrBits);
       tsdr_step_q   <= '0;
+      tsdr_bound_q  <= NowReset - 32'(21'(rate_bit(4'd0)) * 21'(MinTsdrBits));
       min_tsdr_q    <= MinTsdrBits;
       rate_moved_q  <= 1'b0;
       drove_age_q   <= '1;
+      drove_at_q    <= '0;
     end else begin
       now_q         <= now_q + 32'd1;
       state_q       <= state_d;
@@ -679,9 +698,11 @@ module transceiver #(
       tx_bit_q      <= rate_bit(rate_d);
       tsdr_q        <= tsdr_d;
       tsdr_step_q   <= tsdr_step_d;
+      tsdr_bound_q  <= tsdr_bound_d;
       min_tsdr_q    <= min_tsdr;
       rate_moved_q  <= rate_d != rate_q;
       drove_age_q   <= drove_age_d;
+      drove_at_q    <= drove_at;
     end
   end
 

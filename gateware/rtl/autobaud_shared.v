@@ -73,6 +73,11 @@ module autobaud_shared #(
   // beside the RAM: the sample strobe, which the whole receive path waits on, comes from a
   // register, not through the RAM's word.
   logic [Channels-1:0]  sample_next_q, sample_next_d;
+  // Each channel's sample strobe, registered (the receive path's step and line at its rate
+  // come from a flip-flop, not through the turn's multiplexers): the next clock's turn is
+  // never this clock's channel (no two turns in a row), so its sample_next_q bit is already
+  // the one its turn reads.
+  logic [Channels-1:0]  samples_q, samples_d, samples_reset;
   // No channel has two turns in a row (crates/rtl-check refuses such a table), so a word read
   // for a turn is never the one written on that clock (a free slot's read, of channel 0's
   // word, goes unused): no_rw_check keeps yosys from adding the flip-flops and multiplexers
@@ -187,11 +192,16 @@ module autobaud_shared #(
   );
   /* verilator lint_on PINCONNECTEMPTY */
 
+  logic                 reset_turn;
+  logic [ChanWidth-1:0] reset_channel;
+  assign {reset_turn, reset_channel} = turn_of('0);
   for (genvar c = 0; c < Channels; c++) begin : g_decisions
     assign detect_o[c] = turn_q && detect && channel_q == ChanWidth'(c);
     assign reject_o[c] = turn_q && reject && channel_q == ChanWidth'(c);
-    assign samples_o[c] = sample && channel_q == ChanWidth'(c);
+    assign samples_d[c] = turn_valid && turn_channel == ChanWidth'(c) && sample_next_q[c];
+    assign samples_reset[c] = reset_turn && reset_channel == ChanWidth'(c);
   end
+  assign samples_o = samples_q;
   assign measuring_o = measuring_q;
 
   // The RAM: written on each turn and read every clock, never at the same word.
@@ -207,6 +217,7 @@ module autobaud_shared #(
       fresh_q     <= '1;
       measuring_q <= '0;
       sample_next_q <= '1;
+      samples_q   <= samples_reset;
     end else begin
       slot_q      <= slot_d;
       turn_q      <= turn_valid;
@@ -214,6 +225,7 @@ module autobaud_shared #(
       fresh_q     <= fresh_d;
       measuring_q <= measuring_d;
       sample_next_q <= sample_next_d;
+      samples_q   <= samples_d;
     end
   end
 endmodule

@@ -587,7 +587,7 @@ module transceiver #(
   // character is delivered, and on the clock a detection's reaches the delimiter the last
   // end kept is its own; a lock taken back clears the transmitter whatever it says.
   logic [7:0]  min_tsdr;
-  logic        tx_busy, tx_clear, tx_start, respond_ok, resp_waiting, resp_due;
+  logic        tx_busy, tx_clear, respond_ok, resp_waiting, resp_due;
   logic [7:0]  resp_len;
   logic [31:0] resp_not_before;
   always_comb begin
@@ -601,8 +601,8 @@ module transceiver #(
                       && $signed(now_q - resp_not_before) >= 0
                       && $signed(tsdr_bound_q - last_end_q) >= 0
                       && $signed(tsdr_bound_q - idle_since_q) >= 0;
+    // The transmitter starts on resp_due unless tx_clear drops it (uart_tx.v takes both).
     tx_clear        = dl_config || dl_reset;
-    tx_start        = resp_due && !tx_clear;
     pending_d       = resp_waiting && !resp_due && !tx_clear;
     resp_len_d      = resp_len;
     not_before_d    = resp_not_before;
@@ -623,7 +623,7 @@ module transceiver #(
   if (Transmitter != 0) begin : g_tx
     uart_tx #(.PhaseWidth(13)) u_tx (
       .clk_i, .rst_ni, .inc_i(13'd1), .modulo_i(rate_bit(rate_q)), .clear_i(tx_clear),
-      .start_i(tx_start), .len_i(resp_len), .rd_addr_o(tx_rd_addr_o),
+      .start_i(resp_due), .len_i(resp_len), .rd_addr_o(tx_rd_addr_o),
       .rd_data_i(tx_rd_data_i), .tx_o, .de_o, .busy_o(tx_busy)
     );
   end else begin : g_no_tx
@@ -632,7 +632,7 @@ module transceiver #(
     assign de_o         = 1'b0;
     assign tx_busy      = 1'b0;
     /* verilator lint_off UNUSEDSIGNAL */
-    wire unused_tx = &{1'b0, tx_rd_data_i, tx_start, resp_len};
+    wire unused_tx = &{1'b0, tx_rd_data_i, tx_clear, resp_len};
     /* verilator lint_on UNUSEDSIGNAL */
   end
 

@@ -28,7 +28,10 @@ module uart_tx #(
   input  wire [PhaseWidth-1:0] inc_i,
   input  wire [PhaseWidth-1:0] modulo_i,
   // A new transmitter (the model's UartTx::new at a change of rate): what was under way
-  // stops (start_i, a send to the new one, comes after it).
+  // stops, and a start on the same clock is dropped (the transceiver drops the response a
+  // change of rate finds waiting). Only the sending flag takes it: the rest is read only
+  // while sending, and a start sets it all, so the clear (late in the top's clock) does not
+  // reach their enables.
   input  wire        clear_i,
   input  wire        start_i,
   input  wire [7:0]  len_i,
@@ -64,9 +67,6 @@ module uart_tx #(
       sending_d = len_i != 0;
       len_d     = len_i;
       byte_d    = rd_data_i;
-    end else if (clear_i) begin
-      // The rest is read only while sending, and a send sets it.
-      sending_d = 1'b0;
     end else if (sending_q) begin
       if (ph_next < {1'b0, modulo_i}) begin
         ph_d = ph_next[PhaseWidth-1:0];
@@ -82,6 +82,7 @@ module uart_tx #(
         end
       end
     end
+    if (clear_i) sending_d = 1'b0;
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin

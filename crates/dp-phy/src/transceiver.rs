@@ -198,7 +198,8 @@ pub struct Transceiver {
     verdict: Option<Verdict>,
     /// The last tick the transmitter drove the line (none since reset): a character that
     /// started by then is the transceiver's own echo. The gateware keeps it as its age,
-    /// saturating, so that it never wraps (README "Gateware").
+    /// saturating, so that it never wraps, and compares a start with 18 bits of the tick while
+    /// the age is under 2^17 clocks (README "Gateware").
     drove_until: Option<Tick>,
     /// The baud-control watchdog, and its clocks.
     watchdog: Watchdog,

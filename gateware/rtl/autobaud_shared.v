@@ -68,6 +68,12 @@ module autobaud_shared #(
   logic                 turn_q, turn_valid;
   logic [ChanWidth-1:0] channel_q, turn_channel;
   logic [Channels-1:0]  fresh_q, fresh_d;
+  // Whether the word read for this clock's turn is not yet written (fresh_q of the channel in
+  // turn) and whether this clock's turn samples (samples_q's one bit set), each kept in a
+  // register of its own, set a clock ahead from the next turn: the step reads them with no
+  // multiplexer by channel before it.
+  logic                 word_fresh_q, word_fresh_d;
+  logic                 sample_q;
   logic [Channels-1:0]  measuring_q, measuring_d;
   // Whether each channel samples on its next turn (its word's frames left are 0 then), kept
   // beside the RAM: the sample strobe, which the whole receive path waits on, comes from a
@@ -136,8 +142,8 @@ module autobaud_shared #(
 
   assign reset_state = {1'b1, edge_reset, PendWidth'(0), tsyn, tsyn, 1'b0, TimeWidth'(0),
                         TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset, ReaderReset};
-  assign {frames_left, state} = fresh_q[channel_q] ? {FrameWidth'(0), reset_state} : word_q;
-  assign sample      = turn_q && sample_next_q[channel_q];
+  assign {frames_left, state} = word_fresh_q ? {FrameWidth'(0), reset_state} : word_q;
+  assign sample      = sample_q;
   assign frames_next = sample ? frames_less_one : frames_left - 1'b1;
   assign heard       = heard_i[channel_q];
 
@@ -151,6 +157,9 @@ module autobaud_shared #(
       measuring_d[channel_q] = measuring_next;
       sample_next_d[channel_q] = frames_next == '0;
     end
+    // The next turn's channel is never this clock's (no two turns in a row), so its fresh
+    // flag is already the one its turn reads.
+    word_fresh_d = fresh_q[turn_channel];
   end
 
   // The step's other view of the measuring flag is for the other caller.
@@ -218,6 +227,8 @@ module autobaud_shared #(
       measuring_q <= '0;
       sample_next_q <= '1;
       samples_q   <= samples_reset;
+      sample_q    <= |samples_reset;
+      word_fresh_q <= 1'b1;
     end else begin
       slot_q      <= slot_d;
       turn_q      <= turn_valid;
@@ -226,6 +237,8 @@ module autobaud_shared #(
       measuring_q <= measuring_d;
       sample_next_q <= sample_next_d;
       samples_q   <= samples_d;
+      sample_q    <= |samples_d;
+      word_fresh_q <= word_fresh_d;
     end
   end
 endmodule

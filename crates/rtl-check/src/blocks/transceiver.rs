@@ -461,6 +461,55 @@ fn watchdog_first_char_cases(quick: bool) -> Vec<(Case, Stats)> {
         .collect()
 }
 
+/// The baud watchdog runs out while the adapter answers: a telegram locks the rate, and a
+/// 20-byte answer is handed over to start half its length before the watchdog's deadline (the
+/// telegram's verdict restarted it). The adapter hears its own echo, which reaches no
+/// delimiter, so between two of its characters nothing is under way: the watchdog expires,
+/// the search starts again and what was going out stops there (the model's `search_again`,
+/// the transmitter's `clear_i`). Returns the case, the model's counters, and the clocks the
+/// adapter drove against the answer's whole length.
+fn watchdog_while_sending_case(baud: Baud, seed: u64) -> (Case, Stats, (u64, u64)) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, rng_ppm(seed, baud));
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let mut tb = observed_bench(&recorder, timing);
+    tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 8));
+    while tb.delivered.is_empty() {
+        tb.step_strict();
+    }
+    let answer: Vec<u8> = (0..20).map(|_| rng.gen()).collect();
+    let whole = timing.clocks_for(11 * answer.len() as u64, 1);
+    let watchdog = u64::from(Config::default().baud_watchdog_10ms) * DEFAULT_CLOCK_HZ as u64 / 100;
+    let not_before = tb.delivered[0].end + watchdog - whole / 2;
+    let taken = tb.adapter.respond(&answer, not_before);
+    recorder.borrow_mut().respond(&answer, not_before, taken);
+    assert!(taken, "{baud}: the answer refused");
+    let mut drove = 0;
+    while tb.adapter.responding() || tb.now() < not_before + whole + 100 * timing.clocks_per_bit() {
+        tb.step_strict();
+        drove += u64::from(tb.adapter.drive().is_some());
+    }
+    let (case, stats) = finish_with_stats(
+        tb,
+        recorder,
+        format!("transceiver-watchdog-while-sending-{baud}"),
+    );
+    (case, stats, (drove, whole))
+}
+
+/// [`watchdog_while_sending_case`]s: at 19.2k and 6M (`quick`), or at every rate.
+fn watchdog_while_sending_cases(quick: bool) -> Vec<(Case, Stats, (u64, u64))> {
+    let rates: &[Baud] = if quick {
+        &[Baud::B19200, Baud::B6000000]
+    } else {
+        &Baud::ALL
+    };
+    rates
+        .iter()
+        .map(|&b| watchdog_while_sending_case(b, 600 + b.index() as u64))
+        .collect()
+}
+
 /// A lock at `lock` taken back on a clock on which the line falls at its rate: two polls at
 /// `lock`, a telegram at `other` that fails the trial it starts (`end`), and a low pulse of
 /// two `lock` bits whose fall the lock's channel samples on the verdict's clock, then two polls
@@ -775,7 +824,12 @@ pub fn transceiver_cases(quick: bool, shard: Shard) -> Vec<Case> {
         .chain(response_cases(quick).into_iter().map(|(c, _)| c))
         .chain(glitch_burst_cases().into_iter().map(|(c, _)| c))
         .chain(relock_fall_cases().into_iter().map(|(c, _)| c))
-        .chain(watchdog_first_char_cases(quick).into_iter().map(|(c, _)| c));
+        .chain(watchdog_first_char_cases(quick).into_iter().map(|(c, _)| c))
+        .chain(
+            watchdog_while_sending_cases(quick)
+                .into_iter()
+                .map(|(c, _, _)| c),
+        );
     cases.extend(
         scripted
             .enumerate()
@@ -973,6 +1027,24 @@ mod tests {
         {
             assert_eq!(stats.telegrams_good, 2, "{}: {stats:?}", case.name);
             assert_eq!(stats.watchdog_expiries, 0, "{}: {stats:?}", case.name);
+        }
+    }
+
+    /// The watchdog's cases while sending, quick and full, expire once while the adapter
+    /// answers and cut its answer short: it drove for more than a tenth and less than nine
+    /// tenths of the answer's length.
+    #[test]
+    fn the_watchdog_cuts_an_answer_short() {
+        for (case, stats, (drove, whole)) in watchdog_while_sending_cases(true)
+            .into_iter()
+            .chain(watchdog_while_sending_cases(false))
+        {
+            assert_eq!(stats.watchdog_expiries, 1, "{}: {stats:?}", case.name);
+            assert!(
+                drove > whole / 10 && drove < whole * 9 / 10,
+                "{}: drove {drove} of {whole} clocks",
+                case.name
+            );
         }
     }
 

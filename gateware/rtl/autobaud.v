@@ -41,6 +41,8 @@ module autobaud #(
   // With a detection: its channel's idle line rose after the character's end (the
   // transceiver's copy then counts from the decision).
   output logic                rose_after_end_o,
+  // With a detection: its rate, one-hot (rate_o's index; 0 without one).
+  output logic [9:0]          detect_rate_o,
   // Each channel samples the line on this clock (the receiver takes the line at its rate's).
   output wire  [9:0]          samples_o,
   output wire  [9:0]          measuring_o
@@ -56,24 +58,22 @@ module autobaud #(
   logic [Rates*PendWidth-1:0] cancel_left;
   logic [Rates-1:0]           rose_after_end;
 
+  // The rates whose channels take turns in one datapath (autobaud_shared.v): at most one of
+  // them decides on a clock, and their fields are the same wires.
+  localparam int SharedRates = Oversampled != 0 ? 7 : 1;
+
   always_comb begin
     for (int r = 0; r < Rates; r++) heard[r] = heard_valid_i && heard_i == 4'(r);
     // The fastest rate first; a detection before any rejection.
     valid_o       = 1'b0;
     detect_o      = 1'b0;
     rate_o        = '0;
-    byte_o        = '0;
     reject_code_o = '0;
-    start_clocks_o = '0;
-    pending_left_o = '0;
-    rose_after_end_o = 1'b0;
     for (int r = 0; r < Rates; r++) begin
       if (reject[r]) begin
         valid_o       = 1'b1;
         rate_o        = 4'(r);
         reject_code_o = reject_code[r*2 +: 2];
-        byte_o        = '0;
-        start_clocks_o = '0;
       end
     end
     for (int r = 0; r < Rates; r++) begin
@@ -81,12 +81,29 @@ module autobaud #(
         valid_o       = 1'b1;
         detect_o      = 1'b1;
         rate_o        = 4'(r);
-        byte_o        = bytes[r*8 +: 8];
         reject_code_o = '0;
-        pending_left_o = cancel_left[r*PendWidth +: PendWidth];
-        rose_after_end_o = rose_after_end[r];
-        start_clocks_o = start_clocks[r*ClocksWidth +: ClocksWidth];
       end
+    end
+    // A detection's fields, read only with detect_o (the transceiver registers them every
+    // clock, and acts on them a clock later only if a detection came): the channels of their
+    // own over the shared datapath's, chosen by their detections alone, not by the rate above
+    // (a priority encoder and then a multiplexer by its index, late in the clock).
+    byte_o           = bytes[(SharedRates-1)*8 +: 8];
+    start_clocks_o   = start_clocks[(SharedRates-1)*ClocksWidth +: ClocksWidth];
+    pending_left_o   = cancel_left[(SharedRates-1)*PendWidth +: PendWidth];
+    rose_after_end_o = rose_after_end[SharedRates-1];
+    for (int r = SharedRates; r < Rates; r++) begin
+      if (detect[r]) begin
+        byte_o           = bytes[r*8 +: 8];
+        start_clocks_o   = start_clocks[r*ClocksWidth +: ClocksWidth];
+        pending_left_o   = cancel_left[r*PendWidth +: PendWidth];
+        rose_after_end_o = rose_after_end[r];
+      end
+    end
+    // The same choice, one-hot: the rate whose detection goes out.
+    detect_rate_o = '0;
+    for (int r = 0; r < Rates; r++) begin
+      if (detect[r]) detect_rate_o = Rates'(1) << r;
     end
   end
 

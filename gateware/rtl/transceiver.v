@@ -214,12 +214,13 @@ module transceiver #(
   logic [IW-1:0] s_age;
   logic [PendWidth-1:0] s_pending_left;
   logic        s_rose_after_end;
+  logic [9:0]  s_detect_rate;
   wire  [9:0]  samples, measuring_unused;
   autobaud #(.Oversampled(1), .PendWidth(PendWidth)) u_search (
     .clk_i, .rst_ni, .level_i(level), .heard_valid_i(rx_on_m), .heard_i(rate_m),
     .valid_o(s_valid), .detect_o(s_detect), .rate_o(s_rate), .byte_o(s_byte),
     .reject_code_o(s_reject_unused), .start_clocks_o(s_age), .pending_left_o(s_pending_left),
-    .rose_after_end_o(s_rose_after_end),
+    .rose_after_end_o(s_rose_after_end), .detect_rate_o(s_detect_rate),
     .samples_o(samples), .measuring_o(measuring_unused)
   );
 
@@ -687,7 +688,9 @@ module transceiver #(
       dp_age_q      <= s_age;
       dp_left_q     <= s_pending_left;
       dp_rose_q     <= s_rose_after_end;
-      dp_fell_q     <= changed[s_rate] && !held_d[s_rate];
+      // The line fell at the detection's rate: its one-hot rate against every rate's fall,
+      // not a multiplexer by its index (which comes late in the clock).
+      dp_fell_q     <= |(s_detect_rate & changed & ~held_d);
       verdict_q          <= verdict_d;
       verdict_good_q     <= verdict_good_d;
       verdict_confirms_q <= verdict_confirms_d;

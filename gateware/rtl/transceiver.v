@@ -208,17 +208,24 @@ module transceiver #(
   logic        rx_on_m;
   logic [3:0]  rate_m;
   logic        s_valid, s_detect;
-  logic [3:0]  s_rate;
+  logic [3:0]  s_rate_unused;
   logic [7:0]  s_byte;
   logic [1:0]  s_reject_unused;
   logic [IW-1:0] s_age;
   logic [PendWidth-1:0] s_pending_left;
   logic        s_rose_after_end;
   logic [9:0]  s_detect_rate;
+  // The detection's rate, read only with a detection: its index from the one-hot (an OR a
+  // bit), not the search's rate_o, which a priority encoder over the rejections too gives late.
+  logic [3:0]  dp_rate_d;
+  always_comb begin
+    dp_rate_d = '0;
+    for (int r = 0; r < 10; r++) dp_rate_d = dp_rate_d | (s_detect_rate[r] ? 4'(r) : 4'd0);
+  end
   wire  [9:0]  samples, measuring_unused;
   autobaud #(.Oversampled(1), .PendWidth(PendWidth)) u_search (
     .clk_i, .rst_ni, .level_i(level), .heard_valid_i(rx_on_m), .heard_i(rate_m),
-    .valid_o(s_valid), .detect_o(s_detect), .rate_o(s_rate), .byte_o(s_byte),
+    .valid_o(s_valid), .detect_o(s_detect), .rate_o(s_rate_unused), .byte_o(s_byte),
     .reject_code_o(s_reject_unused), .start_clocks_o(s_age), .pending_left_o(s_pending_left),
     .rose_after_end_o(s_rose_after_end), .detect_rate_o(s_detect_rate),
     .samples_o(samples), .measuring_o(measuring_unused)
@@ -683,7 +690,7 @@ module transceiver #(
       det_byte_q    <= det_byte_d;
       det_end_q     <= det_end_d;
       dp_valid_q    <= s_valid && s_detect;
-      dp_rate_q     <= s_rate;
+      dp_rate_q     <= dp_rate_d;
       dp_byte_q     <= s_byte;
       dp_age_q      <= s_age;
       dp_left_q     <= s_pending_left;

@@ -448,14 +448,18 @@ fn watchdog_first_char_case(baud: Baud, seed: u64) -> (Case, Stats) {
     )
 }
 
-/// [`watchdog_first_char_case`]s: at 9.6k and 12M (`quick`), or at every rate.
-fn watchdog_first_char_cases(quick: bool) -> Vec<(Case, Stats)> {
-    let rates: &[Baud] = if quick {
-        &[Baud::B9600, Baud::B12000000]
+/// The rates a set of cases runs at: `quick_rates` in the quick set, every rate in full.
+fn rates(quick: bool, quick_rates: &'static [Baud]) -> &'static [Baud] {
+    if quick {
+        quick_rates
     } else {
         &Baud::ALL
-    };
-    rates
+    }
+}
+
+/// [`watchdog_first_char_case`]s: at 9.6k and 12M (`quick`), or at every rate.
+fn watchdog_first_char_cases(quick: bool) -> Vec<(Case, Stats)> {
+    rates(quick, &[Baud::B9600, Baud::B12000000])
         .iter()
         .map(|&b| watchdog_first_char_case(b, 500 + b.index() as u64))
         .collect()
@@ -499,12 +503,7 @@ fn watchdog_while_sending_case(baud: Baud, seed: u64) -> (Case, Stats, (u64, u64
 
 /// [`watchdog_while_sending_case`]s: at 19.2k and 6M (`quick`), or at every rate.
 fn watchdog_while_sending_cases(quick: bool) -> Vec<(Case, Stats, (u64, u64))> {
-    let rates: &[Baud] = if quick {
-        &[Baud::B19200, Baud::B6000000]
-    } else {
-        &Baud::ALL
-    };
-    rates
+    rates(quick, &[Baud::B19200, Baud::B6000000])
         .iter()
         .map(|&b| watchdog_while_sending_case(b, 600 + b.index() as u64))
         .collect()
@@ -841,12 +840,7 @@ pub fn transceiver_cases(quick: bool, shard: Shard) -> Vec<Case> {
 
 /// [`response_case`]s: at three rates (`quick`), or at every rate.
 fn response_cases(quick: bool) -> Vec<(Case, Responses)> {
-    let rates: &[Baud] = if quick {
-        &[Baud::B187500, Baud::B1500000, Baud::B12000000]
-    } else {
-        &Baud::ALL
-    };
-    rates
+    rates(quick, &[Baud::B187500, Baud::B1500000, Baud::B12000000])
         .iter()
         .map(|&b| response_case(b, 300 + b.index() as u64, 0, 0))
         .collect()
@@ -862,12 +856,7 @@ pub fn near_wrap_cases(quick: bool) -> Vec<Case> {
 }
 
 fn near_wrap_responses(quick: bool) -> Vec<(Case, Responses)> {
-    let rates: &[Baud] = if quick {
-        &[Baud::B1500000, Baud::B12000000]
-    } else {
-        &Baud::ALL
-    };
-    rates
+    rates(quick, &[Baud::B1500000, Baud::B12000000])
         .iter()
         .map(|&b| {
             // The same traffic from power-up says where its first two good telegrams end: the

@@ -411,7 +411,7 @@ fn trials_case(lock: Baud, other: Baud, end: TrialEnd, seed: u64) -> (Case, Stat
     }
     polls(&mut tb, &mut rng, 2);
     // The baud watchdog: the line idle past it, then the lock's traffic found again.
-    let watchdog = u64::from(Config::default().baud_watchdog_10ms) * DEFAULT_CLOCK_HZ as u64 / 100;
+    let watchdog = baud_watchdog_clocks();
     tb.run_until(tb.now() + watchdog + 1000, false);
     tb.set_master_timing(at(other));
     tb.send(40, &failing(&mut rng));
@@ -436,7 +436,7 @@ fn watchdog_first_char_case(baud: Baud, seed: u64) -> (Case, Stats) {
     let mut tb = observed_bench(&recorder, timing);
     tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 8));
     tb.run_out(40, false);
-    let watchdog = u64::from(Config::default().baud_watchdog_10ms) * DEFAULT_CLOCK_HZ as u64 / 100;
+    let watchdog = baud_watchdog_clocks();
     let expiry = tb.delivered[0].end + watchdog;
     tb.run_until(expiry - timing.clocks_for(41, 1), false);
     tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 8));
@@ -483,7 +483,7 @@ fn watchdog_while_sending_case(baud: Baud, seed: u64) -> (Case, Stats, (u64, u64
     }
     let answer: Vec<u8> = (0..20).map(|_| rng.gen()).collect();
     let whole = timing.clocks_for(11 * answer.len() as u64, 1);
-    let watchdog = u64::from(Config::default().baud_watchdog_10ms) * DEFAULT_CLOCK_HZ as u64 / 100;
+    let watchdog = baud_watchdog_clocks();
     let not_before = tb.delivered[0].end + watchdog - whole / 2;
     let taken = tb.adapter.respond(&answer, not_before);
     recorder.borrow_mut().respond(&answer, not_before, taken);
@@ -783,6 +783,12 @@ struct Responses {
     collisions: u64,
     /// The end ticks of the good telegrams delivered.
     good_ends: Vec<Tick>,
+}
+
+/// The baud watchdog's timeout in clocks, with the default configuration.
+fn baud_watchdog_clocks() -> u64 {
+    let cfg = Config::default();
+    u64::from(cfg.baud_watchdog_10ms) * u64::from(cfg.clock_hz / 100)
 }
 
 /// A master's clock off by up to 3,000 ppm, fixed by the seed and the rate.

@@ -124,6 +124,9 @@ pub struct Stats {
     /// Locks taken back on a clock on which the line fell at their rate: the receiver starts
     /// afresh with that fall, its idle time from the lock's idle line.
     pub relock_falls: u64,
+    /// Detections acted on whose rate's line fell on the detection's clock: the receiver's
+    /// first candidate starts there, handed over with the detection.
+    pub detection_falls: u64,
 }
 
 /// Internal signals worth a waveform.
@@ -633,6 +636,7 @@ impl Transceiver {
             self.late_copies.0 = d.rose_after_end;
         }
         self.stats.detections_after_rise += u64::from(d.rose_after_end);
+        self.stats.detection_falls += u64::from(fell);
         if changed {
             self.rx_idle
                 .edge(self.now, level, self.search.glitch_clocks(d.baud));

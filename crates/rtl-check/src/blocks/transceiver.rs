@@ -643,6 +643,36 @@ fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats)
     )
 }
 
+/// A start delimiter the search decides on the clock its rate's line falls for the next
+/// character (`Stats::detection_falls`): from power-up, a master `ppm` off sends an SD2
+/// telegram, its characters back to back, with a low glitch `at` hundredths of a bit into the
+/// delimiter and `len` long, over its stop bit's middle. The search's channel then waits for
+/// the whole stop bit, and decides on the sample that sees the next character's start bit. The
+/// receiver is handed over with that fall (the top's `dp_fell_q`), and polls follow. Returns
+/// the case and the model's counters at its end.
+fn detection_fall_case(baud: Baud, ppm: i32, at: u64, len: u64, seed: u64) -> (Case, Stats) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm);
+    let recorder = Rc::new(RefCell::new(Recorder::new()));
+    let mut tb = observed_bench(&recorder, timing);
+    let bit = timing.clocks_per_bit();
+    tb.bus.faults.add(FaultWindow {
+        start: timing.clocks_for(40, 1) + at * bit / 100,
+        len: (len * bit / 100).max(1),
+        fault: LineFault::Stuck(false),
+    });
+    tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 2));
+    for t in poll_sequence(&mut rng, 2) {
+        tb.send(40, &t);
+    }
+    tb.run_out(40, false);
+    finish_with_stats(
+        tb,
+        recorder,
+        format!("transceiver-detection-fall-{baud}-{ppm}ppm-{at}-{len}"),
+    )
+}
+
 /// dp-phy's `fast_equals_strict` stream: six random telegrams of every kind from a master
 /// `ppm` off, 30 to 39 idle bits apart, the fourth with a data bit flipped, and 20 glitches of
 /// up to a bit over them. Returns the case and how many detections the model delivered more
@@ -834,7 +864,8 @@ pub fn transceiver_cases(quick: bool, shard: Shard) -> Vec<Case> {
             watchdog_while_sending_cases(quick)
                 .into_iter()
                 .map(|(c, _, _)| c),
-        );
+        )
+        .chain(detection_fall_cases(quick).into_iter().map(|(c, _)| c));
     cases.extend(
         scripted
             .enumerate()
@@ -905,6 +936,36 @@ fn late_decision_cases(quick: bool) -> Vec<(Case, Stats)> {
         .collect()
 }
 
+/// [`detection_fall_case`]s: at 19.2k and 6M (`quick`), or at every rate where the scan of
+/// glitches over the stop bit's middle found one (not 93.75k or 187.5k: their channels'
+/// middle and end samples did not meet the next start there); each a master offset and a
+/// glitch (hundredths of a bit: at, length) from the middle of the range that decides on the
+/// fall.
+fn detection_fall_cases(quick: bool) -> Vec<(Case, Stats)> {
+    let cases: &[(Baud, i32, u64, u64)] = if quick {
+        &[
+            (Baud::B19200, -3000, 1045, 10),
+            (Baud::B6000000, 0, 1055, 10),
+        ]
+    } else {
+        &[
+            (Baud::B9600, -3000, 1045, 10),
+            (Baud::B19200, -3000, 1045, 10),
+            (Baud::B45450, 0, 1045, 20),
+            (Baud::B500000, 0, 1045, 20),
+            (Baud::B1500000, 0, 1050, 20),
+            (Baud::B3000000, 0, 1050, 10),
+            (Baud::B6000000, 0, 1055, 10),
+            (Baud::B12000000, 0, 1060, 10),
+        ]
+    };
+    cases
+        .iter()
+        .enumerate()
+        .map(|(i, &(baud, ppm, at, len))| detection_fall_case(baud, ppm, at, len, 300 + i as u64))
+        .collect()
+}
+
 fn trials_cases(quick: bool) -> Vec<(Case, Stats)> {
     let pairs = if quick {
         &TRIAL_PAIRS[..2]
@@ -971,6 +1032,20 @@ mod tests {
                 .collect();
             assert!(!hits.is_empty(), "set {i}: no fall on the verdict's clock");
             println!("{hits:?}");
+        }
+    }
+
+    /// The detection-fall cases, quick and full, are decided on the clock their rate's line
+    /// falls for the next character (the top's `dp_fell_q`: forced to 0, rtl-check finds
+    /// both quick cases), and the telegram and the polls after it are taken.
+    #[test]
+    fn the_detections_meet_a_fall() {
+        for (case, stats) in detection_fall_cases(true)
+            .into_iter()
+            .chain(detection_fall_cases(false))
+        {
+            assert_eq!(stats.detection_falls, 1, "{}: {stats:?}", case.name);
+            assert_eq!(stats.telegrams_good, 3, "{}: {stats:?}", case.name);
         }
     }
 

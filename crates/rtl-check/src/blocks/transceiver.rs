@@ -936,11 +936,11 @@ fn late_decision_cases(quick: bool) -> Vec<(Case, Stats)> {
         .collect()
 }
 
-/// [`detection_fall_case`]s: at 19.2k and 6M (`quick`), or at every rate where the scan of
-/// glitches over the stop bit's middle found one (not 93.75k or 187.5k: their channels'
-/// middle and end samples did not meet the next start there); each a master offset and a
-/// glitch (hundredths of a bit: at, length) from the middle of the range that decides on the
-/// fall.
+/// [`detection_fall_case`]s: at 19.2k and 6M (`quick`), or at every rate where a scan of
+/// glitches over the stop bit's middle found one (10.30 to 10.70 bits into the delimiter, 0.05
+/// to 0.30 bit long, masters at -3,000, 0 and +3,000 ppm: none at 93.75k or 187.5k); each a
+/// master offset and a glitch (hundredths of a bit: at, length) from the middle of the range
+/// that decides on the fall.
 fn detection_fall_cases(quick: bool) -> Vec<(Case, Stats)> {
     let cases: &[(Baud, i32, u64, u64)] = if quick {
         &[

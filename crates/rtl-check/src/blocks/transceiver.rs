@@ -621,26 +621,40 @@ fn relock_fall_cases() -> Vec<(Case, Stats)> {
 /// (`Detection::rose_after_end`), and the gap and TSYN of the polls after it count from
 /// there. Returns the case and the model's counters at its end.
 fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats) {
+    faulted_delimiter_case(
+        BitTiming::new(DEFAULT_CLOCK_HZ, baud, 5000),
+        (at, len, true),
+        seed,
+        format!("transceiver-late-decision-{baud}-{at}-{len}"),
+    )
+}
+
+/// From power-up, a master at `timing` sends an SD2 telegram (two data bytes) with the line
+/// held at `level` from `at` hundredths of a bit into it for `len` hundredths (`fault`: at,
+/// len, level), then two polls, 40 idle bits apart. Returns the case and the model's counters
+/// at its end.
+fn faulted_delimiter_case(
+    timing: BitTiming,
+    fault: (u64, u64, bool),
+    seed: u64,
+    name: String,
+) -> (Case, Stats) {
+    let (at, len, level) = fault;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, 5000);
     let recorder = Rc::new(RefCell::new(Recorder::new()));
     let mut tb = observed_bench(&recorder, timing);
     let bit = timing.clocks_per_bit();
     tb.bus.faults.add(FaultWindow {
         start: timing.clocks_for(40, 1) + at * bit / 100,
         len: (len * bit / 100).max(1),
-        fault: LineFault::Stuck(true),
+        fault: LineFault::Stuck(level),
     });
     tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 2));
     for t in poll_sequence(&mut rng, 2) {
         tb.send(40, &t);
     }
     tb.run_out(40, false);
-    finish_with_stats(
-        tb,
-        recorder,
-        format!("transceiver-late-decision-{baud}-{at}-{len}"),
-    )
+    finish_with_stats(tb, recorder, name)
 }
 
 /// A start delimiter the search decides on the clock its rate's line falls for the next
@@ -651,24 +665,10 @@ fn late_decision_case(baud: Baud, at: u64, len: u64, seed: u64) -> (Case, Stats)
 /// receiver is handed over with that fall (the top's `dp_fell_q`), and polls follow. Returns
 /// the case and the model's counters at its end.
 fn detection_fall_case(baud: Baud, ppm: i32, at: u64, len: u64, seed: u64) -> (Case, Stats) {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let timing = BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm);
-    let recorder = Rc::new(RefCell::new(Recorder::new()));
-    let mut tb = observed_bench(&recorder, timing);
-    let bit = timing.clocks_per_bit();
-    tb.bus.faults.add(FaultWindow {
-        start: timing.clocks_for(40, 1) + at * bit / 100,
-        len: (len * bit / 100).max(1),
-        fault: LineFault::Stuck(false),
-    });
-    tb.send(40, &random_telegram(&mut rng, Kind::Sd2, 2));
-    for t in poll_sequence(&mut rng, 2) {
-        tb.send(40, &t);
-    }
-    tb.run_out(40, false);
-    finish_with_stats(
-        tb,
-        recorder,
+    faulted_delimiter_case(
+        BitTiming::new(DEFAULT_CLOCK_HZ, baud, ppm),
+        (at, len, false),
+        seed,
         format!("transceiver-detection-fall-{baud}-{ppm}ppm-{at}-{len}"),
     )
 }

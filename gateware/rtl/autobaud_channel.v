@@ -73,8 +73,13 @@ module autobaud_channel #(
   output wire                 measuring_o
 );
   localparam int ReaderWidth = 4 * PhaseWidth + 21;
+  // What a decision reads of a reader, made a clock ahead (autobaud_channel_step.v's
+  // read_ahead), and its value for a reader at reset: framed but for the stop bit (a zero
+  // byte has even parity, and its stop bit would be the balance's sign), both balances zero.
+  localparam int AheadWidth  = 8;
+  localparam logic [AheadWidth-1:0] AheadReset = 8'b0010_0101;
   localparam int StateWidth  = 2 * PendWidth + 2 * IdleWidth + 2 * TimeWidth + AltWidth + 8
-                               + 2 * ReaderWidth;
+                               + 2 * ReaderWidth + 2 * AheadWidth;
   localparam logic [ReaderWidth-1:0] ReaderReset = {4'd11, (ReaderWidth - 4)'(0)};
   // Reset is tick 0, with the line high since then: TSYN is all to come, and the line's last
   // edge is taken as at tick 0, within a glitch of it until the sample Glitch + 1 samples past
@@ -82,7 +87,7 @@ module autobaud_channel #(
   localparam logic [StateWidth-1:0] Reset = {
     1'b1, PendWidth'(Phase == 0 ? Glitch + 1 : Glitch), PendWidth'(0), IdleWidth'(Tsyn),
     IdleWidth'(Tsyn), 1'b0, TimeWidth'(0), TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0,
-    ReaderReset, ReaderReset};
+    ReaderReset, ReaderReset, AheadReset, AheadReset};
 
   localparam int PhaseBits = Period > 1 ? $clog2(Period) : 1;
   logic [PhaseBits-1:0]  phase_q, phase_d;
@@ -92,18 +97,20 @@ module autobaud_channel #(
   logic [AltWidth-1:0]   alt;
   logic                  from_alt;
   logic [TimeWidth-1:0]  since_alt;
-  logic [TimeWidth-1:0]  since_start;
   assign since_alt      = since_t0 - TimeWidth'(alt);
-  assign since_start    = from_alt ? since_alt : since_t0;
-  assign start_clocks_o = ClocksWidth'(since_start) * ClocksWidth'(Period);
+  // Both candidates' ages are worked out from the registers; the step's choice, late in the
+  // clock, only picks one (in the RTL only).
+  assign start_clocks_o = from_alt ? ClocksWidth'(since_alt) * ClocksWidth'(Period)
+                                   : ClocksWidth'(since_t0) * ClocksWidth'(Period);
 
   // The idle line's high is Tsyn - 1 - high_left samples old, the character's end
   // since_start - StopEnd: it rose after the end when the first is the younger (a high
   // TSYN old or older is before it).
   localparam int EndWidth = (IdleWidth > TimeWidth ? IdleWidth : TimeWidth) + 1;
   logic [IdleWidth-1:0] high_left;
-  assign rose_after_end_o = EndWidth'(high_left) + EndWidth'(since_start)
-                            > EndWidth'(Tsyn - 1 + StopEnd);
+  assign rose_after_end_o = from_alt
+      ? EndWidth'(high_left) + EndWidth'(since_alt) > EndWidth'(Tsyn - 1 + StopEnd)
+      : EndWidth'(high_left) + EndWidth'(since_t0) > EndWidth'(Tsyn - 1 + StopEnd);
   // The channel's samples: every Period clocks, from tick Phase. Between them it holds.
   assign sample  = phase_q == '0;
   assign sample_o = sample;

@@ -9,7 +9,8 @@
 // held, edge_left (PendWidth), cancel_left (PendWidth), high_left and before_left (IdleWidth
 // each), measuring, since_t0 and decide_in (TimeWidth each), n_edges (5), alt (AltWidth),
 // deferred, then the second candidate's reader and the start's (char_reader_step.v's state
-// each).
+// each), then what the decision reads of each of them, made a clock ahead (AheadWidth each:
+// read_ahead below; in the RTL only).
 //
 // sample_i: this clock is one of the channel's samples of the line; between them only the
 // readers' step enable is low and nothing else moves, so a caller that steps the channel on its
@@ -24,8 +25,9 @@ module autobaud_channel_step #(
   parameter int AltWidth      = 13,
   // Derived; not to be set.
   parameter int ReaderWidth   = 4 * PhaseWidth + 21,
+  parameter int AheadWidth    = 8,
   parameter int StateWidth    = 2 * PendWidth + 2 * IdleWidth + 2 * TimeWidth + AltWidth + 8
-                                + 2 * ReaderWidth
+                                + 2 * ReaderWidth + 2 * AheadWidth
 ) (
   // The rate's reader figures (CharReader::new, reduced).
   input  wire [PhaseWidth-1:0] inc_i,
@@ -88,11 +90,11 @@ module autobaud_channel_step #(
   logic [AltWidth-1:0]  alt_q, alt_d;
   logic                 deferred_q, deferred_d;
   logic [ReaderWidth-1:0] reader0_q, reader0_d, reader1_q, reader1_d;
+  logic [AheadWidth-1:0]  ahead1_q, ahead0_q;
 
   assign {held_q, edge_left_q, cancel_left_q, high_left_q, before_left_q, measuring_q,
-          since_t0_q, decide_in_q, n_edges_q, alt_q, deferred_q, reader1_q, reader0_q} = state_i;
-  assign state_o = {held_d, edge_left_d, cancel_left_d, high_left_d, before_left_d, measuring_d,
-                    since_t0_d, decide_in_d, n_edges_d, alt_d, deferred_d, reader1_d, reader0_d};
+          since_t0_q, decide_in_q, n_edges_q, alt_q, deferred_q, reader1_q, reader0_q,
+          ahead1_q, ahead0_q} = state_i;
 
   logic                 sample, fell, rose;
   logic                 edge_now, cancels, after_glitch, starts, second, overflow, due;
@@ -103,50 +105,77 @@ module autobaud_channel_step #(
   // model clocks the reader through this clock first: the same bits, and this clock's edge
   // counts in the glitches).
   logic [3:0]              bit0, bit1;
-  logic [10:0]             shift0, shift1;
+  // The bits shifted in but the first and the last: the byte with its neighbours.
+  logic [9:1]              shift0, shift1;
   logic                    tie0, tie1;
   logic [1:0]              glitches0, glitches1;
-  logic [BalanceWidth-1:0] lead0, lead1, lag0, lag1;
   // The reader's state: bit, rem, lead, lag, shift, tie, glitches, pair_open, pair_left.
   assign bit0      = reader0_q[ReaderWidth-1 -: 4];
-  assign lead0     = reader0_q[ReaderWidth-5-PhaseWidth -: BalanceWidth];
-  assign lag0      = reader0_q[ReaderWidth-5-PhaseWidth-BalanceWidth -: BalanceWidth];
-  assign shift0    = reader0_q[PhaseWidth+14 -: 11];
+  assign shift0    = reader0_q[PhaseWidth+13 -: 9];
   assign tie0      = reader0_q[PhaseWidth+3];
   assign glitches0 = reader0_d[PhaseWidth+1 +: 2];
   assign bit1      = reader1_q[ReaderWidth-1 -: 4];
-  assign lead1     = reader1_q[ReaderWidth-5-PhaseWidth -: BalanceWidth];
-  assign lag1      = reader1_q[ReaderWidth-5-PhaseWidth-BalanceWidth -: BalanceWidth];
-  assign shift1    = reader1_q[PhaseWidth+14 -: 11];
+  assign shift1    = reader1_q[PhaseWidth+13 -: 9];
   assign tie1      = reader1_q[PhaseWidth+3];
   assign glitches1 = reader1_d[PhaseWidth+1 +: 2];
+
+  function automatic logic is_delimiter(input logic [7:0] b);
+    is_delimiter = b == 8'h10 || b == 8'h68 || b == 8'hA2 || b == 8'hDC;
+  endfunction
+
+  // In the RTL only: what a reading needs of a reader but the line's level and this clock's
+  // glitches, from its registers as the step leaves them, for the decision on the next step
+  // (the registers do not move between steps): the character framed (start bit low, stop bit
+  // high, parity) and a delimiter's byte, both with the stop bit over (its bits as shifted in)
+  // and under way (the bits before it: the stop bit is the sign of its balance, the decision's
+  // level's); each balance positive, and zero. So the decision waits on no parity, byte
+  // comparison or zero test, only on choices by the level and the glitches.
+  /* verilator lint_off UNUSEDSIGNAL */
+  function automatic logic [AheadWidth-1:0] read_ahead(input logic [ReaderWidth-1:0] r);
+    logic [10:0]             shift;
+    logic [BalanceWidth-1:0] lead, lag;
+    shift = r[PhaseWidth+14 -: 11];
+    lead  = r[ReaderWidth-5-PhaseWidth -: BalanceWidth];
+    lag   = r[ReaderWidth-5-PhaseWidth-BalanceWidth -: BalanceWidth];
+    read_ahead = {!shift[0] && shift[10] && shift[9] == ^shift[8:1], is_delimiter(shift[8:1]),
+                  !shift[1] && shift[10] == ^shift[9:2], is_delimiter(shift[9:2]),
+                  !lead[BalanceWidth-1] && lead != '0, lead == '0,
+                  !lag[BalanceWidth-1] && lag != '0, lag == '0};
+  endfunction
+  /* verilator lint_on UNUSEDSIGNAL */
 
   function automatic logic [IdleWidth-1:0] idle_dec(input logic [IdleWidth-1:0] v);
     idle_dec = v == '0 ? v : v - 1'b1;
   endfunction
 
   // A reading as dp_phy::autobaud::delimiter_read judges it: {ok, code, byte}. At a decision
-  // the stop bit is under way (bit_n 10: it is the sign of this clock's balance) or over
-  // (11): the model asserts it (AutoBaud::decide), and nothing else is built.
+  // the stop bit is under way (bit_n 10: it is the sign of this clock's balance, and the byte
+  // the bits before it) or over (11: the bits as shifted in): the model asserts it
+  // (AutoBaud::decide), and nothing else is built. The tests on the bits and the balances come
+  // made a clock ahead (`ahead`: read_ahead's).
   function automatic logic [10:0] judge(
-      input logic [3:0] bit_n, input logic [10:0] shift, input logic tie,
-      input logic [1:0] glitches, input logic [BalanceWidth-1:0] lead,
-      input logic [BalanceWidth-1:0] lag, input logic level);
-    logic [BalanceWidth-1:0] total;
-    logic [10:0] bits;
-    logic        over, tied;
-    logic [7:0]  data;
-    total = level ? lead : lag;
-    over  = bit_n == 4'd11;
-    bits  = over ? shift : {!total[BalanceWidth-1] && total != '0, shift[10:1]};
-    tied  = tie || (!over && total == '0);
-    data  = bits[8:1];
+      input logic [3:0] bit_n, input logic [9:1] shift, input logic tie,
+      input logic [1:0] glitches, input logic [AheadWidth-1:0] ahead, input logic level);
+    logic       over, tied, framed, delimiter;
+    logic       framed_over, delimiter_over, framed_under, delimiter_under;
+    logic       lead_positive, lead_zero, lag_positive, lag_zero;
+    logic [7:0] data;
+    {framed_over, delimiter_over, framed_under, delimiter_under,
+     lead_positive, lead_zero, lag_positive, lag_zero} = ahead;
+    over      = bit_n == 4'd11;
+    tied      = tie || (!over && (level ? lead_zero : lag_zero));
+    framed    = over ? framed_over : framed_under && (level ? lead_positive : lag_positive);
+    delimiter = over ? delimiter_over : delimiter_under;
+    data      = over ? shift[8:1] : shift[9:2];
     if (tied || glitches > 2'd1) judge = {1'b0, 2'd0, 8'd0};
-    else if (bits[0] || !bits[10] || bits[9] != ^data) judge = {1'b0, 2'd1, 8'd0};
-    else if (data != 8'h10 && data != 8'h68 && data != 8'hA2 && data != 8'hDC)
-      judge = {1'b0, 2'd2, 8'd0};
+    else if (!framed) judge = {1'b0, 2'd1, 8'd0};
+    else if (!delimiter) judge = {1'b0, 2'd2, 8'd0};
     else judge = {1'b1, 2'd0, data};
   endfunction
+
+  assign state_o = {held_d, edge_left_d, cancel_left_d, high_left_d, before_left_d, measuring_d,
+                    since_t0_d, decide_in_d, n_edges_d, alt_d, deferred_d, reader1_d, reader0_d,
+                    read_ahead(reader1_d), read_ahead(reader0_d)};
 
   logic [10:0]          from_start, from_alt;
   logic                 ok;
@@ -181,8 +210,8 @@ module autobaud_channel_step #(
                    && since_t0_q < start_bit_i;
     due          = sample && measuring_q && !starts && !second && !overflow
                    && decide_in_q == '0;
-    from_start   = judge(bit0, shift0, tie0, glitches0, lead0, lag0, level_i);
-    from_alt     = judge(bit1, shift1, tie1, glitches1, lead1, lag1, level_i);
+    from_start   = judge(bit0, shift0, tie0, glitches0, ahead0_q, level_i);
+    from_alt     = judge(bit1, shift1, tie1, glitches1, ahead1_q, level_i);
     ok           = 1'b0;
     code         = 2'd0;
     data         = 8'd0;

@@ -6,12 +6,17 @@
 // phase, and the model's AutoBaud::sampled on that schedule. Channel c is the rate of index c.
 //
 // The channels' registers live in block RAM, one word a channel (autobaud_channel_step.v's
-// packed state and the turns left before its next sample): the word of the channel whose turn
-// comes next is read one clock ahead (the RAM's read is registered), stepped on its clock and
-// written back at that clock's edge, while the next one is read (no channel has two turns in a
-// row). A channel whose word has not been written since reset reads as its reset value
-// instead (fresh_q), as block RAM cannot be reset. The figures of the channel in turn come from
-// a table written from the model (autobaud_slots.svh, by crates/rtl-check).
+// packed state and the turns left before its next sample). The word of a turn is read from
+// the RAM two clocks ahead and kept in flip-flops (word_q) from the clock before its turn, so
+// the step starts from a flip-flop rather than the RAM's slow read (in the RTL only: the
+// model has no RAM); the word the step makes is kept in flip-flops too (written_q) and written
+// back a clock after its turn. A channel whose last turn was two clocks before (1.5M's) has
+// its word from written_q, which the RAM has not yet taken when that read is made; no channel
+// has two turns in a row, nor turns three clocks apart (a read would meet the write of its own
+// word; crates/rtl-check refuses such a table). A channel whose word has not been written
+// since reset takes its reset value instead (fresh_q), as block RAM cannot be reset. The
+// figures of the channel in turn come from a table written from the model
+// (autobaud_slots.svh, by crates/rtl-check).
 //
 // At most one channel decides on a clock: detect_o and reject_o are one-hot, and the decision's
 // byte, code and start age are that channel's. measuring_o keeps each channel's flag in
@@ -56,8 +61,13 @@ module autobaud_shared #(
   localparam int SlotWidth   = $clog2(Slots);
   localparam int ChanWidth   = $clog2(Channels);
   localparam int ReaderWidth = 4 * PhaseWidth + 21;
+  // What a decision reads of a reader, made a clock ahead (autobaud_channel_step.v's
+  // read_ahead), and its value for a reader at reset: framed but for the stop bit (a zero
+  // byte has even parity, and its stop bit would be the balance's sign), both balances zero.
+  localparam int AheadWidth  = 8;
+  localparam logic [AheadWidth-1:0] AheadReset = 8'b0010_0101;
   localparam int StateWidth  = 2 * PendWidth + 2 * IdleWidth + 2 * TimeWidth + AltWidth + 8
-                               + 2 * ReaderWidth;
+                               + 2 * ReaderWidth + 2 * AheadWidth;
   localparam int WordWidth   = StateWidth + FrameWidth;
   localparam logic [ReaderWidth-1:0] ReaderReset = {4'd11, (ReaderWidth - 4)'(0)};
 
@@ -68,11 +78,9 @@ module autobaud_shared #(
   logic                 turn_q, turn_valid;
   logic [ChanWidth-1:0] channel_q, turn_channel;
   logic [Channels-1:0]  fresh_q, fresh_d;
-  // Whether the word read for this clock's turn is not yet written (fresh_q of the channel in
-  // turn) and whether this clock's turn samples (samples_q's one bit set), each kept in a
-  // register of its own, set a clock ahead from the next turn: the step reads them with no
-  // multiplexer by channel before it.
-  logic                 word_fresh_q, word_fresh_d;
+  // Whether this clock's turn samples (samples_q's one bit set), kept in a register of its
+  // own, set a clock ahead from the next turn: the step reads it with no multiplexer by
+  // channel before it.
   logic                 sample_q;
   logic [Channels-1:0]  measuring_q, measuring_d;
   // Whether each channel samples on its next turn (its word's frames left are 0 then), kept
@@ -84,21 +92,33 @@ module autobaud_shared #(
   // never this clock's channel (no two turns in a row), so its sample_next_q bit is already
   // the one its turn reads.
   logic [Channels-1:0]  samples_q, samples_d, samples_reset;
-  // No channel has two turns in a row (crates/rtl-check refuses such a table), so a word read
-  // for a turn is never the one written on that clock (a free slot's read, of channel 0's
-  // word, goes unused): no_rw_check keeps yosys from adding the flip-flops and multiplexers
-  // that would give a read colliding with a write the old word (about 330 DFF).
+  // A read (for the turn after next) never meets the write of its own word on the same edge:
+  // that write is of the turn three clocks before the read's (crates/rtl-check refuses a
+  // table with turns three clocks apart; before a free slot nothing is read). no_rw_check
+  // keeps yosys from adding the flip-flops and multiplexers that would give a read colliding
+  // with a write the old word (about 330 DFF).
   (* ram_style = "block", no_rw_check *)
   logic [WordWidth-1:0] words [Channels];
-  logic [WordWidth-1:0] word_q;
+  // The RAM's read (the turn after next's word), the word of this clock's turn, and the word
+  // the last clock's turn made, with its channel, which the RAM takes on this clock's edge.
+  logic [WordWidth-1:0] read_q;
+  logic [WordWidth-1:0] word_q, word_d;
+  logic [WordWidth-1:0] written_q;
+  logic                 written_valid_q;
+  logic [ChanWidth-1:0] written_channel_q;
+  logic [SlotWidth-1:0] slot_after_next;
+  logic                 turn_after_next_valid;
+  logic [ChanWidth-1:0] turn_after_next_channel;
   assign {turn_valid, turn_channel} = turn_of(slot_d);
+  assign slot_after_next = slot_d == SlotWidth'(Slots - 1) ? '0 : slot_d + 1'b1;
+  assign {turn_after_next_valid, turn_after_next_channel} = turn_of(slot_after_next);
 
   // The channel's figures (autobaud_slots.svh).
   logic [PhaseWidth-1:0] inc, modulo, quarter, three_quarters, half_less_inc;
   logic [PhaseWidth:0]   two_inc;
   logic [PhaseWidth-1:0] modulo_less_inc, modulo_less_two_inc;
-  logic [PendWidth-1:0]  glitch, edge_reset;
-  logic [IdleWidth-1:0]  tsyn, tsyn_less_one;
+  logic [PendWidth-1:0]  glitch;
+  logic [IdleWidth-1:0]  tsyn_less_one;
   logic [TimeWidth-1:0]  to_middle, middle_to_end, start_bit;
   logic [FrameWidth-1:0] frames_less_one;
   // TSYN less one and the stop bit's end, added: the idle line's high plus the start's age
@@ -119,7 +139,7 @@ module autobaud_shared #(
 
 `include "autobaud_slots.svh"
 
-  logic [StateWidth-1:0] state, state_next, reset_state;
+  logic [StateWidth-1:0] state, state_next;
   logic [FrameWidth-1:0] frames_left, frames_next;
   logic                  sample, heard;
   logic                  detect, reject, measuring_next;
@@ -127,22 +147,36 @@ module autobaud_shared #(
   assign cancel_left_o = PendOutWidth'(cancel_left);
 
   // The start age in clocks: the channel in turn samples every sample_period clocks (the
-  // table's); both candidates come from its word (the RAM's, early in the clock), and one
-  // multiplier takes the one the step chose.
+  // table's); both candidates come from its word (early in the clock), each with its own
+  // multiplier and its own comparison for the rise, and the step's choice, late in the clock,
+  // only picks one (one multiplier after the choice was the clock's longest path).
   logic [TimeWidth-1:0]   since_t0;
   logic [AltWidth-1:0]    alt;
   logic                   from_alt;
   logic [TimeWidth-1:0]   since_alt;
-  logic [TimeWidth-1:0]   since_start;
   assign since_alt      = since_t0 - TimeWidth'(alt);
-  assign since_start    = from_alt ? since_alt : since_t0;
-  assign start_clocks_o = ClocksWidth'(since_start) * ClocksWidth'(sample_period);
+  assign start_clocks_o = from_alt ? ClocksWidth'(since_alt) * ClocksWidth'(sample_period)
+                                   : ClocksWidth'(since_t0) * ClocksWidth'(sample_period);
   logic [IdleWidth-1:0]   high_left;
-  assign rose_after_end_o = EndWidth'(high_left) + EndWidth'(since_start) > tsyn_past_end;
+  assign rose_after_end_o = from_alt
+      ? EndWidth'(high_left) + EndWidth'(since_alt) > tsyn_past_end
+      : EndWidth'(high_left) + EndWidth'(since_t0) > tsyn_past_end;
 
-  assign reset_state = {1'b1, edge_reset, PendWidth'(0), tsyn, tsyn, 1'b0, TimeWidth'(0),
-                        TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset, ReaderReset};
-  assign {frames_left, state} = word_fresh_q ? {FrameWidth'(0), reset_state} : word_q;
+  // A channel's word as reset: its idle line's figures (idle_reset_of, the table's) and the
+  // rest constant; the word of the first turn after reset is word_q's reset value.
+  function automatic logic [WordWidth-1:0] reset_word(input logic [PendWidth+IdleWidth-1:0] idle);
+    logic [PendWidth-1:0] edge_left;
+    logic [IdleWidth-1:0] tsyn_left;
+    edge_left = idle[IdleWidth+:PendWidth];
+    tsyn_left = idle[0+:IdleWidth];
+    reset_word = {FrameWidth'(0), 1'b1, edge_left, PendWidth'(0), tsyn_left, tsyn_left, 1'b0,
+                  TimeWidth'(0), TimeWidth'(0), 5'd0, AltWidth'(0), 1'b0, ReaderReset,
+                  ReaderReset, AheadReset, AheadReset};
+  endfunction
+  localparam logic [ChanWidth:0]   FirstTurn = turn_of('0);
+  localparam logic [WordWidth-1:0] FirstWord =
+    reset_word(idle_reset_of(FirstTurn[ChanWidth-1:0]));
+  assign {frames_left, state} = word_q;
   assign sample      = sample_q;
   assign frames_next = sample ? frames_less_one : frames_left - 1'b1;
   assign heard       = heard_i[channel_q];
@@ -157,9 +191,16 @@ module autobaud_shared #(
       measuring_d[channel_q] = measuring_next;
       sample_next_d[channel_q] = frames_next == '0;
     end
-    // The next turn's channel is never this clock's (no two turns in a row), so its fresh
-    // flag is already the one its turn reads.
-    word_fresh_d = fresh_q[turn_channel];
+    // The next turn's word: its channel is never this clock's (no two turns in a row), so its
+    // fresh flag is already the one its turn reads; a turn two clocks before it made the word
+    // the RAM takes on this clock's edge, too late for the read.
+    if (fresh_q[turn_channel]) begin
+      word_d = reset_word(idle_reset_of(turn_channel));
+    end else if (written_valid_q && written_channel_q == turn_channel) begin
+      word_d = written_q;
+    end else begin
+      word_d = read_q;
+    end
   end
 
   // The step's other view of the measuring flag is for the other caller.
@@ -213,10 +254,10 @@ module autobaud_shared #(
   assign samples_o = samples_q;
   assign measuring_o = measuring_q;
 
-  // The RAM: written on each turn and read every clock, never at the same word.
+  // The RAM: written a clock after each turn and read every clock, never at the same word.
   always_ff @(posedge clk_i) begin
-    if (turn_q) words[channel_q] <= {frames_next, state_next};
-    word_q <= words[turn_channel];
+    if (written_valid_q) words[written_channel_q] <= written_q;
+    if (turn_after_next_valid) read_q <= words[turn_after_next_channel];
   end
 
   always_ff @(posedge clk_i or negedge rst_ni) begin
@@ -228,7 +269,10 @@ module autobaud_shared #(
       sample_next_q <= '1;
       samples_q   <= samples_reset;
       sample_q    <= |samples_reset;
-      word_fresh_q <= 1'b1;
+      word_q      <= FirstWord;
+      written_q   <= '0;
+      written_valid_q <= 1'b0;
+      written_channel_q <= '0;
     end else begin
       slot_q      <= slot_d;
       turn_q      <= turn_valid;
@@ -238,7 +282,10 @@ module autobaud_shared #(
       sample_next_q <= sample_next_d;
       samples_q   <= samples_d;
       sample_q    <= |samples_d;
-      word_fresh_q <= word_fresh_d;
+      word_q      <= word_d;
+      written_q   <= {frames_next, state_next};
+      written_valid_q <= turn_q;
+      written_channel_q <= channel_q;
     end
   end
 endmodule

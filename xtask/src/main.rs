@@ -16,8 +16,9 @@
 //! - `clippy-firmware`: clippy, warnings denied, on the firmware of every board in the table.
 //! - `rtl-check [--quick]`: the gateware's blocks against the transceiver model, clock for
 //!   clock, under Verilator.
-//! - `gateware`: the blocks synthesised for the production board's FPGA and the search placed
-//!   and routed on it (yosys and nextpnr-ice40 from PyPI).
+//! - `gateware [--part P]`: the blocks synthesised for the production board's FPGA (an ECP5),
+//!   the search and the transceiver's top placed and routed on it (yosys and nextpnr from
+//!   PyPI); `--part iCE40HX8K-CT256` for the iCE40 HX8K, measured, not gated.
 //! - `soak [--seed S] [--minutes M] [--events N] [--in-process] [--trace-from K] [--broken
 //!   fail-safe]`: a seeded random schedule of everything the scenarios do, on the firmware
 //!   under QEMU, with invariants checked as it runs.

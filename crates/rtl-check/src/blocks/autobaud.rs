@@ -71,6 +71,17 @@ fn sample_figures(f: &ChannelFigures) -> SampleFigures {
     }
 }
 
+/// The samples a channel's last edge is taken as pending at reset: the line's last edge is
+/// taken as at tick 0, the channel's first sample is within a glitch of it, and the
+/// Glitch-th past tick 0 is the last that is.
+fn edge_reset(f: &ChannelFigures, n: &SampleFigures) -> u64 {
+    if f.phase == 0 {
+        n.glitch + 1
+    } else {
+        n.glitch
+    }
+}
+
 /// The registers' widths a channel needs: phase, idle line, pending edge, measurement, second
 /// start.
 fn widths(f: &ChannelFigures) -> [u32; 5] {
@@ -126,13 +137,18 @@ fn turns(schedule: &Schedule, shared: &[usize]) -> Vec<Option<usize>> {
             slot += every;
         }
     }
-    // The RAM reads a channel's word a clock before its turn, after the last turn's write.
+    // The step takes a turn's word on the clock after the last turn's (so no two turns in a
+    // row), and the RAM reads it two clocks ahead, on the edge that writes the word of the
+    // turn three clocks before (so no turns three clocks apart; two apart, the word comes
+    // from autobaud_shared.v's written_q instead).
     for slot in 0..turns.len() {
-        let next = turns[(slot + 1) % turns.len()];
-        assert!(
-            turns[slot].is_none() || turns[slot] != next,
-            "a shared channel with two turns in a row (slot {slot})"
-        );
+        for (apart, what) in [(1, "two turns in a row"), (3, "turns three clocks apart")] {
+            let later = turns[(slot + apart) % turns.len()];
+            assert!(
+                turns[slot].is_none() || turns[slot] != later,
+                "a shared channel with {what} (slot {slot})"
+            );
+        }
     }
     turns
 }
@@ -304,11 +320,29 @@ pub fn slots_svh() -> String {
         }
     }
     s.push_str("    default: turn_of = '0;\n  endcase\nendfunction\n\n");
+    // A channel's idle line at reset, for its word before its first turn: {edge_reset, tsyn},
+    // as the figures below give them.
+    s.push_str(
+        "function automatic logic [G+I-1:0] idle_reset_of(input logic [C-1:0] channel);\n  \
+         case (channel)\n",
+    );
+    for (c, &r) in shared.iter().enumerate() {
+        let f = search.channel_figures(Baud::ALL[r]);
+        let n = sample_figures(&f);
+        let _ = writeln!(
+            s,
+            "    {c}: idle_reset_of = {{G'({}), I'({})}}; // {}",
+            edge_reset(&f, &n),
+            n.tsyn,
+            Baud::ALL[r]
+        );
+    }
+    s.push_str("    default: idle_reset_of = '0;\n  endcase\nendfunction\n\n");
     s.push_str(
         "always_comb begin\n  \
          inc = '0; modulo = '0; quarter = '0; three_quarters = '0; half_less_inc = '0;\n  \
          two_inc = '0; modulo_less_inc = '0; modulo_less_two_inc = '0; glitch = '0;\n  \
-         edge_reset = '0; tsyn = '0; tsyn_less_one = '0; to_middle = '0; middle_to_end = '0;\n  \
+         tsyn_less_one = '0; to_middle = '0; middle_to_end = '0;\n  \
          start_bit = '0; frames_less_one = '0; tsyn_past_end = '0; sample_period = '0;\n  \
          case (channel_q)\n",
     );
@@ -317,9 +351,6 @@ pub fn slots_svh() -> String {
         let f = search.channel_figures(baud);
         let rd = f.reader;
         let n = sample_figures(&f);
-        // The line's last edge is taken as at tick 0: the channel's first sample is within a
-        // glitch of it, and the Glitch-th past tick 0 is the last that is.
-        let edge_reset = if f.phase == 0 { n.glitch + 1 } else { n.glitch };
         let _ = write!(
             s,
             "    // {baud}: a sample every {} clocks from tick {}\n    \
@@ -327,7 +358,7 @@ pub fn slots_svh() -> String {
              inc = P'({}); modulo = P'({}); quarter = P'({}); three_quarters = P'({});\n      \
              half_less_inc = P'({}); two_inc = (P + 1)'({});\n      \
              modulo_less_inc = P'({}); modulo_less_two_inc = P'({});\n      \
-             glitch = G'({}); edge_reset = G'({edge_reset}); tsyn = I'({}); tsyn_less_one = I'({});\n      \
+             glitch = G'({}); tsyn_less_one = I'({});\n      \
              to_middle = T'({}); middle_to_end = T'({}); start_bit = T'({});\n      \
              frames_less_one = F'({}); tsyn_past_end = E'({}); sample_period = Q'({});\n    \
              end\n",
@@ -342,7 +373,6 @@ pub fn slots_svh() -> String {
             rd.modulo_less_inc,
             rd.modulo_less_two_inc,
             n.glitch,
-            n.tsyn,
             n.tsyn - 1,
             n.stop_middle - 1,
             n.stop_end - n.stop_middle - 1,

@@ -103,9 +103,9 @@ module autobaud_channel #(
   assign start_clocks_o = from_alt ? ClocksWidth'(since_alt) * ClocksWidth'(Period)
                                    : ClocksWidth'(since_t0) * ClocksWidth'(Period);
 
-  // The idle line's high is Tsyn - 1 - high_left samples old, the character's end
-  // since_start - StopEnd: it rose after the end when the first is the younger (a high
-  // TSYN old or older is before it).
+  // The idle line's high is Tsyn - 1 - high_left samples old, the character's end its start's
+  // age (since_t0, or since_alt for the second candidate) less StopEnd: it rose after the end
+  // when the first is the younger (a high TSYN old or older is before it).
   localparam int EndWidth = (IdleWidth > TimeWidth ? IdleWidth : TimeWidth) + 1;
   logic [IdleWidth-1:0] high_left;
   assign rose_after_end_o = from_alt

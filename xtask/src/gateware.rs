@@ -150,23 +150,36 @@ pub fn run(args: &[String]) -> Result<()> {
             cells.bram
         );
     }
-    let percent = |p: &Placed| p.used * 100 / p.total.max(1);
-    let under = |fmax: f64| {
-        if fmax < clock_mhz {
-            " (under the clock: README \"Gateware\" has what limits it)"
-        } else {
-            ""
+    // A placed block's line: its logic, share of the part and Fmax; or, for one that may not
+    // fit, why nextpnr gave none.
+    let describe = |p: &Placed| {
+        format!(
+            "{}/{} logic ({}%), Fmax {:.1} MHz{}",
+            p.used,
+            p.total,
+            p.used * 100 / p.total.max(1),
+            p.fmax,
+            if p.fmax < clock_mhz {
+                " (under the clock: README \"Gateware\" has what limits it)"
+            } else {
+                ""
+            }
+        )
+    };
+    let verdict = |placed: &std::result::Result<Placed, (u64, u64)>| match placed {
+        Ok(p) => format!(
+            "{}, {}/{} block RAMs",
+            describe(p),
+            p.brams,
+            fpga.block_rams
+        ),
+        Err((used, total)) if used > total => format!("{used}/{total} logic: does not fit"),
+        Err((used, total)) => {
+            format!("{used}/{total} logic: fits, but nextpnr did not place and route it")
         }
     };
-    let placed = place_and_route(&tools, &family, &fpga, &search, &root, true)?;
-    println!(
-        "  the search on the part: {}/{} logic ({}%), Fmax {:.1} MHz{}",
-        placed.used,
-        placed.total,
-        percent(&placed),
-        placed.fmax,
-        under(placed.fmax)
-    );
+    let placed = place_and_route(&tools, &family, &fpga, &search, &root)?;
+    println!("  the search on the part: {}", describe(&placed));
     // The receiver alone, in a wrapper that registers its outputs, and beside the search:
     // what sharing the fabric does to them.
     let receiver = Block {
@@ -202,51 +215,25 @@ pub fn run(args: &[String]) -> Result<()> {
         ),
     ] {
         synthesise(&tools, &family, block, &root)?;
-        let p = place_and_route(&tools, &family, &fpga, block, &root, true)?;
-        println!(
-            "  {what}: {}/{} logic ({}%), Fmax {:.1} MHz{}",
-            p.used,
-            p.total,
-            percent(&p),
-            p.fmax,
-            under(p.fmax)
-        );
+        let p = place_and_route(&tools, &family, &fpga, block, &root)?;
+        println!("  {what}: {}", describe(&p));
     }
     // The transceiver's top: every block above, with the state registers between them, in one
     // clock as the model's tick has it; and its receive path alone (the transmitter tied off).
     let top = blocks::transceiver();
     let top_placed = place_measured(&tools, &family, &fpga, &top, &root)?;
-    let top_verdict = match &top_placed {
-        Ok(p) => format!(
-            "{}/{} logic ({}%), {}/{} block RAMs, Fmax {:.1} MHz{}",
-            p.used,
-            p.total,
-            percent(p),
-            p.brams,
-            fpga.block_rams,
-            p.fmax,
-            under(p.fmax)
-        ),
-        Err((used, total)) if used > total => format!("{used}/{total} logic: does not fit"),
-        Err((used, total)) => {
-            format!("{used}/{total} logic: fits, but nextpnr did not place and route it")
-        }
-    };
-    println!("  the transceiver's top on the part (gateware/rtl/transceiver.v): {top_verdict}");
+    println!(
+        "  the transceiver's top on the part (gateware/rtl/transceiver.v): {}",
+        verdict(&top_placed)
+    );
     let mut rx_top = blocks::transceiver();
     rx_top.params.insert(0, ("Transmitter", 0));
     synthesise(&tools, &family, &rx_top, &root)?;
     let rx_top_placed = place_measured(&tools, &family, &fpga, &rx_top, &root)?;
-    if let Ok(p) = &rx_top_placed {
-        println!(
-            "  its receive path alone (Transmitter 0): {}/{} logic ({}%), Fmax {:.1} MHz{}",
-            p.used,
-            p.total,
-            percent(p),
-            p.fmax,
-            under(p.fmax)
-        );
-    }
+    println!(
+        "  its receive path alone (Transmitter 0): {}",
+        verdict(&rx_top_placed)
+    );
     let (luts, brams, fmax) = match &top_placed {
         Ok(p) => (
             format!("{}/{}", p.used, p.total),
@@ -294,16 +281,15 @@ pub fn run(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// nextpnr on `block`'s netlist (from [`synthesise`]) for `fpga` at its sample clock (a
-/// failure under the clock with `slow_ok`, for a block measured rather than gated). Its report
-/// goes to `<build>-pnr.log` in [`OUT`].
+/// nextpnr on `block`'s netlist (from [`synthesise`]) for `fpga` at its sample clock, with
+/// `--timing-allow-fail`: a block under the clock still gets its figures, and [`run`] gates
+/// the board's part on them afterwards. Its report goes to `<build>-pnr.log` in [`OUT`].
 fn place_and_route(
     tools: &Tools,
     family: &Family,
     fpga: &Fpga,
     block: &Block,
     root: &Path,
-    slow_ok: bool,
 ) -> Result<Placed> {
     let name = block.build_name();
     let report = root.join(OUT).join(format!("{name}-pnr.log"));
@@ -320,9 +306,7 @@ fn place_and_route(
     if let Some(speed) = fpga.speed {
         command.arg("--speed").arg(speed.to_string());
     }
-    if slow_ok {
-        command.arg("--timing-allow-fail");
-    }
+    command.arg("--timing-allow-fail");
     let output = command
         .output()
         .with_context(|| format!("running {}", family.nextpnr))?;
@@ -360,7 +344,7 @@ fn place_measured(
     block: &Block,
     root: &Path,
 ) -> Result<std::result::Result<Placed, (u64, u64)>> {
-    match place_and_route(tools, family, fpga, block, root, true) {
+    match place_and_route(tools, family, fpga, block, root) {
         Ok(p) => Ok(Ok(p)),
         Err(e) => {
             let report = root
